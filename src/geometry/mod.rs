@@ -1,0 +1,218 @@
+//! Geometry: triangle meshes with the patches (input polygons or pieces of curved
+//! surfaces) they were made from, the built-in shapes, and bicubic Bezier patches.
+//!
+//! Everything is ray traced as triangles. Each triangle remembers its *patch*: the
+//! input polygon, or the piece of a Bezier patch, that the radiosity pass meshes.
+
+pub mod bezier;
+pub mod meshfile;
+pub mod shapes;
+
+use glam::{Mat3, Mat4, Vec2, Vec3};
+
+pub use bezier::BezierPatch;
+
+/// What a radiosity patch is: an input polygon, or a parametric piece of a Bezier patch.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Patch {
+    /// A planar polygon; indices into the mesh's `positions`, counter-clockwise
+    /// seen from the side the normal points to.
+    Polygon(Vec<u32>),
+    /// The piece `u0..u1 x v0..v1` of the mesh's Bezier patch `surface`.
+    Bezier {
+        /// Index into [`TriMesh::bezier`].
+        surface: u32,
+        /// Parameter range in u.
+        u: [f32; 2],
+        /// Parameter range in v.
+        v: [f32; 2],
+    },
+}
+
+/// A triangle mesh in world space, with the patches it was made from.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TriMesh {
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Per-vertex shading normals; empty for flat shading.
+    pub normals: Vec<Vec3>,
+    /// Per-vertex surface parameters (u, v); empty when the mesh has none.
+    pub uvs: Vec<Vec2>,
+    /// Triangles, counter-clockwise seen from the front.
+    pub indices: Vec<[u32; 3]>,
+    /// For each triangle, the index of its patch in `patches`.
+    pub tri_patch: Vec<u32>,
+    /// The patches (radiosity's unit of meshing).
+    pub patches: Vec<Patch>,
+    /// Bezier surfaces that `Patch::Bezier` entries refer to.
+    pub bezier: Vec<BezierPatch>,
+}
+
+impl TriMesh {
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len()
+    }
+
+    /// The three corners of triangle `t`.
+    pub fn triangle(&self, t: usize) -> [Vec3; 3] {
+        let [a, b, c] = self.indices[t];
+        [
+            self.positions[a as usize],
+            self.positions[b as usize],
+            self.positions[c as usize],
+        ]
+    }
+
+    /// Area of triangle `t`.
+    pub fn triangle_area(&self, t: usize) -> f32 {
+        let [a, b, c] = self.triangle(t);
+        0.5 * (b - a).cross(c - a).length()
+    }
+
+    /// Total surface area.
+    pub fn area(&self) -> f32 {
+        (0..self.triangle_count())
+            .map(|t| self.triangle_area(t))
+            .sum()
+    }
+
+    /// Appends `other`, renumbering its vertices, patches and Bezier surfaces.
+    pub fn append(&mut self, other: &TriMesh) {
+        let v0 = self.positions.len() as u32;
+        let p0 = self.patches.len() as u32;
+        let b0 = self.bezier.len() as u32;
+        // Keep per-vertex arrays aligned: fill missing normals/uvs only if either side has them.
+        if !other.normals.is_empty() || !self.normals.is_empty() {
+            self.fill_normals();
+            let mut o = other.clone();
+            o.fill_normals();
+            self.normals.extend_from_slice(&o.normals);
+        }
+        if !other.uvs.is_empty() || !self.uvs.is_empty() {
+            self.uvs.resize(self.positions.len(), Vec2::ZERO);
+            if other.uvs.is_empty() {
+                self.uvs
+                    .extend(std::iter::repeat_n(Vec2::ZERO, other.positions.len()));
+            } else {
+                self.uvs.extend_from_slice(&other.uvs);
+            }
+        }
+        self.positions.extend_from_slice(&other.positions);
+        self.indices
+            .extend(other.indices.iter().map(|t| t.map(|i| i + v0)));
+        self.tri_patch
+            .extend(other.tri_patch.iter().map(|p| p + p0));
+        self.patches.extend(other.patches.iter().map(|p| match p {
+            Patch::Polygon(v) => Patch::Polygon(v.iter().map(|i| i + v0).collect()),
+            Patch::Bezier { surface, u, v } => Patch::Bezier {
+                surface: surface + b0,
+                u: *u,
+                v: *v,
+            },
+        }));
+        self.bezier.extend_from_slice(&other.bezier);
+    }
+
+    /// Gives every vertex a normal (area-weighted face normals where none were set).
+    fn fill_normals(&mut self) {
+        if self.normals.len() == self.positions.len() {
+            return;
+        }
+        let mut n = vec![Vec3::ZERO; self.positions.len()];
+        for t in 0..self.indices.len() {
+            let [a, b, c] = self.triangle(t);
+            let fnorm = (b - a).cross(c - a);
+            for &i in &self.indices[t] {
+                n[i as usize] += fnorm;
+            }
+        }
+        self.normals = n.into_iter().map(|v| v.normalize_or(Vec3::Z)).collect();
+    }
+
+    /// Applies an affine transform: points by `m`, normals by its inverse transpose.
+    /// A transform that mirrors (negative determinant) keeps the front side by
+    /// reversing the winding, as Mitsuba does.
+    pub fn transform(&mut self, m: &Mat4) {
+        for p in &mut self.positions {
+            *p = m.transform_point3(*p);
+        }
+        let nm = Mat3::from_mat4(*m).inverse().transpose();
+        for n in &mut self.normals {
+            *n = (nm * *n).normalize_or(Vec3::Z);
+        }
+        for b in &mut self.bezier {
+            for c in &mut b.ctrl {
+                *c = m.transform_point3(*c);
+            }
+        }
+        if Mat3::from_mat4(*m).determinant() < 0.0 {
+            self.reverse_winding();
+        }
+    }
+
+    /// Turns the mesh inside out: reverses winding and negates shading normals.
+    pub fn flip_normals(&mut self) {
+        self.reverse_winding();
+        for n in &mut self.normals {
+            *n = -*n;
+        }
+        for b in &mut self.bezier {
+            b.flipped = !b.flipped;
+        }
+    }
+
+    fn reverse_winding(&mut self) {
+        for t in &mut self.indices {
+            t.swap(1, 2);
+        }
+        for p in &mut self.patches {
+            if let Patch::Polygon(v) = p {
+                v.reverse();
+            }
+        }
+    }
+
+    /// Axis-aligned bounds `(min, max)`; `None` for an empty mesh.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let first = *self.positions.first()?;
+        Some(
+            self.positions
+                .iter()
+                .fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p))),
+        )
+    }
+
+    /// Checks the invariants every mesh must hold; returns a description of the first
+    /// violation. Loaders call this so that bad input becomes an error, not a panic.
+    pub fn validate(&self) -> Result<(), String> {
+        let nv = self.positions.len();
+        if !self.normals.is_empty() && self.normals.len() != nv {
+            return Err(format!(
+                "{} normals for {} vertices",
+                self.normals.len(),
+                nv
+            ));
+        }
+        if !self.uvs.is_empty() && self.uvs.len() != nv {
+            return Err(format!("{} uvs for {} vertices", self.uvs.len(), nv));
+        }
+        if self.tri_patch.len() != self.indices.len() {
+            return Err("triangle-to-patch map has the wrong length".into());
+        }
+        if let Some(p) = self.positions.iter().position(|p| !p.is_finite()) {
+            return Err(format!("vertex {p} has a non-finite coordinate"));
+        }
+        for (t, tri) in self.indices.iter().enumerate() {
+            if tri.iter().any(|&i| i as usize >= nv) {
+                return Err(format!(
+                    "triangle {t} refers to a vertex past the {nv} defined"
+                ));
+            }
+            if self.tri_patch[t] as usize >= self.patches.len() {
+                return Err(format!("triangle {t} refers to a missing patch"));
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,20 @@
+//! radtrace: radiosity ray tracing with source selection and a shadow image buffer.
+//!
+//! An implementation of Kok, Jansen & Woodward, "Efficient, complete radiosity ray
+//! tracing using a shadow-coherence method", The Visual Computer 10:19-33 (1993).
+//!
+//! Data flows one way, as in the paper:
+//! [`scene`] (loaded from a Mitsuba 3 XML file) -> [`accel`] (BVH) -> [`render`]
+//! (image + [`stats`]) -> [`io`] (EXR/PNG/JSON).
+#![forbid(unsafe_code)]
+
+pub mod accel;
+pub mod compare;
+pub mod error;
+pub mod geometry;
+pub mod io;
+pub mod render;
+pub mod scene;
+pub mod stats;
+
+pub use error::{Error, Result};

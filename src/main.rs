@@ -1,0 +1,2 @@
+//! The `radtrace` command.
+fn main() {}

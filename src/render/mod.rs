@@ -1,0 +1,1 @@
+//! The rendering pass: camera, shading and image reconstruction.

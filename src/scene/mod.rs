@@ -1,0 +1,199 @@
+//! The scene: shapes with their materials, light sources and views (sensors).
+//!
+//! A [`Scene`] is immutable once loaded (see [`xml::load`]); every later stage reads it.
+
+pub mod xml;
+
+use std::path::PathBuf;
+
+use glam::{Mat4, Vec3};
+
+use crate::geometry::TriMesh;
+
+/// Linear RGB triplet (reflectance, radiance, intensity...).
+pub type Rgb = Vec3;
+
+/// A material, reduced to what the paper's reflection model needs: a diffuse
+/// (Lambertian) part and a perfect mirror part.
+#[derive(Debug, Clone, PartialEq)]
+pub enum BsdfKind {
+    /// Lambertian reflector (`diffuse`).
+    Diffuse {
+        /// Diffuse reflectance rho.
+        reflectance: Rgb,
+    },
+    /// Smooth mirror (`conductor` with `material="none"`).
+    Conductor {
+        /// Mirror reflectance.
+        specular_reflectance: Rgb,
+    },
+    /// Diffuse base under a smooth dielectric coating (`plastic`), as in Mitsuba 3.
+    Plastic {
+        /// Diffuse reflectance of the base.
+        diffuse_reflectance: Rgb,
+        /// Scale of the coating's Fresnel reflection.
+        specular_reflectance: Rgb,
+        /// Relative index of refraction `int_ior / ext_ior`.
+        eta: f32,
+        /// Mitsuba's `nonlinear` flag (internal scattering darkens colours).
+        nonlinear: bool,
+    },
+    /// `(1 - weight) * a + weight * b` (`blendbsdf`).
+    Blend {
+        /// Weight of `b`.
+        weight: f32,
+        /// First BSDF.
+        a: Box<BsdfKind>,
+        /// Second BSDF.
+        b: Box<BsdfKind>,
+    },
+}
+
+/// A material as used by shapes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bsdf {
+    /// The `id` in the scene file, or a generated name.
+    pub name: String,
+    /// The reflection model.
+    pub kind: BsdfKind,
+    /// Reflects on both sides (`twosided`); otherwise the back side is black.
+    pub twosided: bool,
+}
+
+impl Default for Bsdf {
+    /// Mitsuba's default: a one-sided diffuse of reflectance 0.5.
+    fn default() -> Self {
+        Bsdf {
+            name: "default".into(),
+            kind: BsdfKind::Diffuse {
+                reflectance: Vec3::splat(0.5),
+            },
+            twosided: false,
+        }
+    }
+}
+
+/// A light source.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Light {
+    /// Isotropic point light.
+    Point {
+        /// Position.
+        position: Vec3,
+        /// Radiant intensity I (W/sr).
+        intensity: Rgb,
+    },
+    /// Spot light as Mitsuba's `spot`: shines along the local +z of `to_world`.
+    Spot {
+        /// Position.
+        position: Vec3,
+        /// Unit direction of the beam's axis.
+        direction: Vec3,
+        /// Radiant intensity on the axis (W/sr).
+        intensity: Rgb,
+        /// Full cutoff angle (radians): no light beyond it.
+        cutoff_angle: f32,
+        /// Angle (radians) up to which the intensity is full; falls off linearly in
+        /// angle from there to the cutoff.
+        beam_width: f32,
+    },
+    /// Diffuse area emitter on a shape's front side.
+    Area {
+        /// Index of the shape in [`Scene::shapes`].
+        shape: u32,
+        /// Emitted radiance Le.
+        radiance: Rgb,
+    },
+}
+
+/// A shape instance: its world-space mesh, material and (optional) area emitter.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Shape {
+    /// The `id` in the scene file, or a name made from the plugin and file.
+    pub name: String,
+    /// World-space triangles and patches.
+    pub mesh: TriMesh,
+    /// Index into [`Scene::bsdfs`].
+    pub bsdf: u32,
+    /// Index into [`Scene::lights`] when the shape is an area emitter.
+    pub emitter: Option<u32>,
+}
+
+/// Which axis `fov` spans (Mitsuba's `fov_axis`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FovAxis {
+    /// Horizontal (Mitsuba's default).
+    X,
+    /// Vertical.
+    Y,
+    /// The image diagonal.
+    Diagonal,
+    /// The smaller image side.
+    Smaller,
+    /// The larger image side.
+    Larger,
+}
+
+/// A pinhole camera (Mitsuba's `perspective` sensor) with its film.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sensor {
+    /// Camera-to-world: local +z looks forward, +y is up, +x is the image's left.
+    pub to_world: Mat4,
+    /// Field of view in degrees along `fov_axis`.
+    pub fov: f32,
+    /// Which axis `fov` spans.
+    pub fov_axis: FovAxis,
+    /// Film width in pixels.
+    pub width: u32,
+    /// Film height in pixels.
+    pub height: u32,
+    /// Near clip distance.
+    pub near_clip: f32,
+    /// Far clip distance.
+    pub far_clip: f32,
+    /// Samples per pixel from the scene's `sampler`, if it names one.
+    pub spp: Option<u32>,
+}
+
+impl Sensor {
+    /// Tangents of the half field of view along x and y.
+    pub fn tan_half_fov(&self) -> (f32, f32) {
+        let aspect = self.width as f32 / self.height as f32;
+        let t = (self.fov.to_radians() * 0.5).tan();
+        let tx = match self.fov_axis {
+            FovAxis::X => t,
+            FovAxis::Y => t * aspect,
+            FovAxis::Diagonal => t * aspect / (1.0 + aspect * aspect).sqrt(),
+            FovAxis::Smaller => {
+                if aspect > 1.0 {
+                    t * aspect
+                } else {
+                    t
+                }
+            }
+            FovAxis::Larger => {
+                if aspect > 1.0 {
+                    t
+                } else {
+                    t * aspect
+                }
+            }
+        };
+        (tx, tx / aspect)
+    }
+}
+
+/// A loaded scene, ready to be rendered.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    /// The file it was loaded from.
+    pub path: PathBuf,
+    /// All shapes.
+    pub shapes: Vec<Shape>,
+    /// All materials; shapes refer to them by index.
+    pub bsdfs: Vec<Bsdf>,
+    /// All light sources (point, spot, and one per emitting shape).
+    pub lights: Vec<Light>,
+    /// Views, in file order.
+    pub sensors: Vec<Sensor>,
+}
