@@ -118,16 +118,8 @@ impl Bvh {
         let mut build_time = Default::default();
         let bvh = build_cwbvh(&tris, BvhBuildParams::medium_build(), &mut build_time);
         // Reorder the triangles into leaf order so traversal reads them contiguously.
-        let tris: Vec<RtTriangle> = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| tris[i as usize])
-            .collect();
-        let refs: Vec<TriRef> = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| refs[i as usize])
-            .collect();
+        let tris: Vec<RtTriangle> = bvh.primitive_indices.iter().map(|&i| tris[i as usize]).collect();
+        let refs: Vec<TriRef> = bvh.primitive_indices.iter().map(|&i| refs[i as usize]).collect();
         Bvh {
             bvh,
             tris,
@@ -142,12 +134,11 @@ impl Bvh {
     }
 
     fn to_bvh_ray(ray: &Ray) -> BvhRay {
-        BvhRay::new(
-            Vec3A::from(ray.origin),
-            Vec3A::from(ray.dir),
-            ray.tmin,
-            ray.tmax,
-        )
+        // Adding +0.0 turns -0.0 into +0.0: obvhs takes the inverse of -0.0 as a large
+        // negative number but the octant of -0.0 as positive, and then misses
+        // everything. Axis-aligned rays (e.g. `-Vec3::Z`) carry such zeros.
+        let dir = Vec3A::from(ray.dir) + Vec3A::ZERO;
+        BvhRay::new(Vec3A::from(ray.origin), dir, ray.tmin, ray.tmax)
     }
 }
 
@@ -180,9 +171,7 @@ impl Accel for Bvh {
             return false;
         }
         let r = Self::to_bvh_ray(ray);
-        !self
-            .bvh
-            .ray_traverse_miss(r, |r, i| self.tris[i].intersect(r))
+        !self.bvh.ray_traverse_miss(r, |r, i| self.tris[i].intersect(r))
     }
 }
 
@@ -243,6 +232,30 @@ mod tests {
         ray.tmax = 3.8;
         assert!(bvh.intersect(&ray).is_none());
         assert!(!bvh.occluded(&ray));
+    }
+
+    #[test]
+    fn axis_aligned_rays_with_negative_zero_components_hit() {
+        // A flat scene hit by rays whose zero components are -0.0 (regression: obvhs
+        // missed every triangle for such rays).
+        let tris: Vec<_> = (0..9)
+            .map(|k| {
+                let x = 30.0 * k as f32;
+                [
+                    Vec3::new(x - 10.0, -10.0, 0.0),
+                    Vec3::new(x + 10.0, -10.0, 0.0),
+                    Vec3::new(x + 10.0, 10.0, 0.0),
+                ]
+            })
+            .collect();
+        let bvh = bvh_of(&tris);
+        for dir in [-Vec3::Z, Vec3::new(-0.0, 0.0, -1.0), Vec3::new(0.0, -0.0, -1.0)] {
+            let ray = Ray::new(Vec3::new(5.0, -5.0, 1.0), dir);
+            assert_eq!(bvh.intersect(&ray).map(|h| h.tri), Some(0), "{dir:?}");
+            assert!(bvh.occluded(&ray));
+        }
+        let up = Ray::new(Vec3::new(35.0, -5.0, -1.0), -(-Vec3::Z));
+        assert_eq!(bvh.intersect(&up).map(|h| h.tri), Some(1));
     }
 
     #[test]

@@ -14,10 +14,15 @@ pub struct Comparison {
 
 /// Compares `test` against `reference`; the images must have the same size.
 /// With `error_map`, also returns the FLIP error map coloured with the magma map.
-pub fn compare(
-    _reference: &Image,
-    _test: &Image,
-    _error_map: bool,
-) -> Result<(Comparison, Option<Image>)> {
+pub fn compare(_reference: &Image, _test: &Image, _error_map: bool) -> Result<(Comparison, Option<Image>)> {
+    todo!("helper: io")
+}
+
+/// Reads both images, compares them, and writes the error map if asked.
+pub fn compare_files(
+    _reference: &std::path::Path,
+    _test: &std::path::Path,
+    _error_map: Option<&std::path::Path>,
+) -> Result<Comparison> {
     todo!("helper: io")
 }

@@ -7,8 +7,11 @@
 //! [`scene`] (loaded from a Mitsuba 3 XML file) -> [`accel`] (BVH) -> [`render`]
 //! (image + [`stats`]) -> [`io`] (EXR/PNG/JSON).
 #![forbid(unsafe_code)]
+// `!(x > 0.0)` is used on purpose: unlike `x <= 0.0` it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod accel;
+pub mod cli;
 pub mod compare;
 pub mod error;
 pub mod geometry;

@@ -1,2 +1,4 @@
-//! The `radtrace` command.
-fn main() {}
+//! The `radtrace` command: see `radtrace --help`.
+fn main() {
+    std::process::exit(radtrace::cli::main());
+}

@@ -72,9 +72,7 @@ impl TriMesh {
 
     /// Total surface area.
     pub fn area(&self) -> f32 {
-        (0..self.triangle_count())
-            .map(|t| self.triangle_area(t))
-            .sum()
+        (0..self.triangle_count()).map(|t| self.triangle_area(t)).sum()
     }
 
     /// Appends `other`, renumbering its vertices, patches and Bezier surfaces.
@@ -101,8 +99,7 @@ impl TriMesh {
         self.positions.extend_from_slice(&other.positions);
         self.indices
             .extend(other.indices.iter().map(|t| t.map(|i| i + v0)));
-        self.tri_patch
-            .extend(other.tri_patch.iter().map(|p| p + p0));
+        self.tri_patch.extend(other.tri_patch.iter().map(|p| p + p0));
         self.patches.extend(other.patches.iter().map(|p| match p {
             Patch::Polygon(v) => Patch::Polygon(v.iter().map(|i| i + v0).collect()),
             Patch::Bezier { surface, u, v } => Patch::Bezier {
@@ -188,11 +185,7 @@ impl TriMesh {
     pub fn validate(&self) -> Result<(), String> {
         let nv = self.positions.len();
         if !self.normals.is_empty() && self.normals.len() != nv {
-            return Err(format!(
-                "{} normals for {} vertices",
-                self.normals.len(),
-                nv
-            ));
+            return Err(format!("{} normals for {} vertices", self.normals.len(), nv));
         }
         if !self.uvs.is_empty() && self.uvs.len() != nv {
             return Err(format!("{} uvs for {} vertices", self.uvs.len(), nv));
@@ -205,9 +198,7 @@ impl TriMesh {
         }
         for (t, tri) in self.indices.iter().enumerate() {
             if tri.iter().any(|&i| i as usize >= nv) {
-                return Err(format!(
-                    "triangle {t} refers to a vertex past the {nv} defined"
-                ));
+                return Err(format!("triangle {t} refers to a vertex past the {nv} defined"));
             }
             if self.tri_patch[t] as usize >= self.patches.len() {
                 return Err(format!("triangle {t} refers to a missing patch"));

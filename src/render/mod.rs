@@ -1,1 +1,186 @@
-//! The rendering pass: camera, shading and image reconstruction.
+//! The rendering pass (the paper's second pass): primary rays through a camera,
+//! shading at the hit points, specular reflection rays, and pixel reconstruction.
+//!
+//! Methods (`--method`) share this code and differ in where direct light comes from:
+//! `direct` ray traces every light source at every diffuse hit (no radiosity).
+
+pub mod bsdf;
+pub mod camera;
+pub mod film;
+pub mod lights;
+mod shading;
+
+use std::time::Instant;
+
+use glam::Vec2;
+use indicatif::ProgressBar;
+use rayon::prelude::*;
+
+use crate::accel::Accel;
+use crate::io::Image;
+use crate::scene::Scene;
+use crate::stats::Counters;
+use crate::{Error, Result};
+
+pub use camera::Camera;
+pub use film::{FilmSample, Filter, SampleBuffer};
+pub use lights::SampledLight;
+pub use shading::{SurfacePoint, Tracer};
+
+/// How the direct light is computed (the paper's renderers as modes of one code).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// Exact direct light: shadow rays to every light source at every diffuse hit;
+    /// no indirect light.
+    #[default]
+    Direct,
+    /// Standard two-pass radiosity: shading from the radiosity mesh alone (Fig. 7).
+    Twopass,
+    /// Radiosity for indirect light, every light source ray traced at fixed counts (Fig. 8).
+    Norm,
+    /// Per-patch source selection (Fig. 9).
+    Local,
+    /// The strongest sources ray traced everywhere.
+    Global,
+}
+
+impl Method {
+    /// The name used on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Direct => "direct",
+            Method::Twopass => "twopass",
+            Method::Norm => "norm",
+            Method::Local => "local",
+            Method::Global => "global",
+        }
+    }
+}
+
+/// Everything that controls one rendering of one view.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    /// The method.
+    pub method: Method,
+    /// Index of the sensor (view).
+    pub view: usize,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Seed of all random choices: the same seed gives the same image.
+    pub seed: u64,
+    /// Shadow rays per area light at each diffuse hit.
+    pub area_samples: u32,
+    /// Maximum number of mirror reflections followed.
+    pub max_depth: u32,
+    /// Pixel reconstruction filter.
+    pub filter: Filter,
+}
+
+/// What one rendering produces.
+#[derive(Debug, Clone)]
+pub struct Output {
+    /// The reconstructed image (linear radiance).
+    pub image: Image,
+    /// Event counts.
+    pub counters: Counters,
+    /// Seconds spent tracing and shading.
+    pub trace_s: f64,
+    /// Seconds spent reconstructing pixels.
+    pub reconstruct_s: f64,
+}
+
+/// Renders one view of `scene`. `progress` (if given) advances by one per image row.
+pub fn render(
+    scene: &Scene,
+    accel: &dyn Accel,
+    settings: &Settings,
+    progress: Option<&ProgressBar>,
+) -> Result<Output> {
+    if settings.method != Method::Direct {
+        return Err(Error::Usage(format!(
+            "--method {} needs the radiosity pass, which this version of radtrace does not have yet; use --method direct",
+            settings.method.name()
+        )));
+    }
+    let sensor = scene.sensors.get(settings.view).ok_or_else(|| {
+        Error::Usage(format!(
+            "--view {}: the scene {} has {} view(s) (0..{})",
+            settings.view,
+            scene.path.display(),
+            scene.sensors.len(),
+            scene.sensors.len().saturating_sub(1)
+        ))
+    })?;
+    let (w, h) = (settings.width, settings.height);
+    let camera = Camera::new(sensor, w, h);
+    let tracer = Tracer::new(scene, accel, settings);
+
+    let start = Instant::now();
+    let rows: Vec<(Vec<FilmSample>, Counters)> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let mut counters = Counters::default();
+            let mut samples = Vec::with_capacity((w * settings.spp) as usize);
+            for x in 0..w {
+                let pixel_seed = pixel_seed(settings.seed, settings.view as u64, x, y);
+                for k in 0..settings.spp {
+                    let jitter = Vec2::new(
+                        sobol_burley::sample(k, 0, pixel_seed),
+                        sobol_burley::sample(k, 1, pixel_seed),
+                    );
+                    let (fx, fy) = (x as f32 + jitter.x, y as f32 + jitter.y);
+                    let ray = camera.ray(fx, fy);
+                    counters.primary_rays += 1;
+                    let path_seed = hash32(pixel_seed ^ k.wrapping_mul(0x9E37_79B9));
+                    let value = tracer.radiance(&ray, 0, path_seed, &mut counters);
+                    samples.push(FilmSample { x: fx, y: fy, value });
+                }
+            }
+            if let Some(p) = progress {
+                p.inc(1);
+            }
+            (samples, counters)
+        })
+        .collect();
+    let trace_s = start.elapsed().as_secs_f64();
+
+    let mut counters = Counters::default();
+    let mut sample_rows = Vec::with_capacity(rows.len());
+    for (s, c) in rows {
+        counters += c;
+        sample_rows.push(s);
+    }
+    let start = Instant::now();
+    let image = SampleBuffer::from_rows(w, h, sample_rows).reconstruct(settings.filter);
+    Ok(Output {
+        image,
+        counters,
+        trace_s,
+        reconstruct_s: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// A 32-bit seed for pixel `(x, y)` of a view, from the user's seed.
+fn pixel_seed(seed: u64, view: u64, x: u32, y: u32) -> u32 {
+    let h = splitmix64(seed ^ splitmix64(view << 48 ^ (y as u64) << 24 ^ x as u64));
+    (h ^ (h >> 32)) as u32
+}
+
+/// SplitMix64's finaliser: a good 64-bit mixing function.
+pub(crate) fn splitmix64(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Mixes a 32-bit value (for deriving independent sample seeds).
+pub(crate) fn hash32(x: u32) -> u32 {
+    let h = splitmix64(x as u64);
+    (h ^ (h >> 32)) as u32
+}

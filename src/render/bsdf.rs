@@ -1,0 +1,177 @@
+//! Evaluation of the materials: the diffuse (Lambertian) part, used with shadow rays
+//! and radiosity, and the perfect-mirror part, followed with reflection rays.
+//! Formulas follow Mitsuba 3 so that the same scene file gives the same picture.
+
+use glam::Vec3;
+
+use crate::scene::{BsdfKind, Rgb};
+
+/// Unpolarised Fresnel reflectance of a smooth dielectric interface, for light
+/// arriving from outside at `cos_i > 0` with relative index `eta = n_in / n_out`.
+pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let cos_i = cos_i.clamp(0.0, 1.0);
+    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    let rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    0.5 * (rs * rs + rp * rp)
+}
+
+/// Hemispherical average of the Fresnel reflectance (Mitsuba's
+/// `fresnel_diffuse_reflectance`: Egan & Hilgeman's fit for `eta < 1`, d'Eon &
+/// Irving's for `eta >= 1`).
+pub fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
+    if eta < 1.0 {
+        -1.4399 * eta * eta + 0.7099 * eta + 0.6681 + 0.0636 / eta
+    } else {
+        let i = 1.0 / eta;
+        let (i2, i3, i4, i5) = (i * i, i * i * i, i * i * i * i, i * i * i * i * i);
+        0.919317 - 3.4793 * i + 6.75335 * i2 - 7.80989 * i3 + 4.98554 * i4 - 1.36881 * i5
+    }
+}
+
+impl BsdfKind {
+    /// The diffuse BRDF value (1/sr, without the cosine) between the light direction
+    /// at cosine `cos_l` and the view direction at cosine `cos_v`, both measured from
+    /// the shading normal on the reflecting side (both must be > 0).
+    pub fn diffuse_brdf(&self, cos_l: f32, cos_v: f32) -> Rgb {
+        match self {
+            BsdfKind::Diffuse { reflectance } => *reflectance * std::f32::consts::FRAC_1_PI,
+            BsdfKind::Conductor { .. } => Vec3::ZERO,
+            BsdfKind::Plastic {
+                diffuse_reflectance,
+                eta,
+                nonlinear,
+                ..
+            } => {
+                let fdr_int = fresnel_diffuse_reflectance(1.0 / eta);
+                let d = *diffuse_reflectance;
+                let d = if *nonlinear {
+                    d / (Vec3::ONE - d * fdr_int)
+                } else {
+                    d / (1.0 - fdr_int)
+                };
+                let t = (1.0 - fresnel_dielectric(cos_l, *eta)) * (1.0 - fresnel_dielectric(cos_v, *eta));
+                d * (t / (eta * eta) * std::f32::consts::FRAC_1_PI)
+            }
+            BsdfKind::Blend { weight, a, b } => {
+                a.diffuse_brdf(cos_l, cos_v) * (1.0 - weight) + b.diffuse_brdf(cos_l, cos_v) * *weight
+            }
+        }
+    }
+
+    /// Weight of the perfect mirror reflection seen from the view direction at
+    /// cosine `cos_v`.
+    pub fn mirror(&self, cos_v: f32) -> Rgb {
+        match self {
+            BsdfKind::Diffuse { .. } => Vec3::ZERO,
+            BsdfKind::Conductor { specular_reflectance } => *specular_reflectance,
+            BsdfKind::Plastic {
+                specular_reflectance,
+                eta,
+                ..
+            } => *specular_reflectance * fresnel_dielectric(cos_v, *eta),
+            BsdfKind::Blend { weight, a, b } => a.mirror(cos_v) * (1.0 - weight) + b.mirror(cos_v) * *weight,
+        }
+    }
+
+    /// Whether the material reflects diffusely at all (where direct light is computed:
+    /// the paper's "diffuse hits").
+    pub fn has_diffuse(&self) -> bool {
+        match self {
+            BsdfKind::Diffuse { reflectance } => reflectance.max_element() > 0.0,
+            BsdfKind::Conductor { .. } => false,
+            BsdfKind::Plastic {
+                diffuse_reflectance, ..
+            } => diffuse_reflectance.max_element() > 0.0,
+            BsdfKind::Blend { weight, a, b } => {
+                (*weight < 1.0 && a.has_diffuse()) || (*weight > 0.0 && b.has_diffuse())
+            }
+        }
+    }
+
+    /// Whether the material has a mirror part.
+    pub fn has_mirror(&self) -> bool {
+        self.mirror(1.0).max_element() > 0.0 || self.mirror(0.0).max_element() > 0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fresnel_known_values() {
+        // Normal incidence: ((eta-1)/(eta+1))^2.
+        let eta = 1.5f32;
+        assert!((fresnel_dielectric(1.0, eta) - 0.04).abs() < 1e-6);
+        // Grazing incidence reflects everything.
+        assert!((fresnel_dielectric(0.0, eta) - 1.0).abs() < 1e-6);
+        // From the dense side beyond the critical angle: total internal reflection.
+        assert_eq!(fresnel_dielectric(0.2, 1.0 / 1.5), 1.0);
+    }
+
+    #[test]
+    fn fresnel_diffuse_reflectance_matches_numeric_integral() {
+        // Fdr = 2 * integral_0^1 F(cos) cos dcos.
+        for eta in [1.0 / 1.49f32, 1.2, 1.49] {
+            let n = 20000;
+            let num: f32 = (0..n)
+                .map(|k| {
+                    let c = (k as f32 + 0.5) / n as f32;
+                    2.0 * fresnel_dielectric(c, eta) * c / n as f32
+                })
+                .sum();
+            let fit = fresnel_diffuse_reflectance(eta);
+            assert!((num - fit).abs() < 0.01, "eta {eta}: numeric {num} vs fit {fit}");
+        }
+    }
+
+    #[test]
+    fn diffuse_is_rho_over_pi_and_blend_mixes() {
+        let d = BsdfKind::Diffuse {
+            reflectance: Vec3::new(0.5, 0.25, 1.0),
+        };
+        let f = d.diffuse_brdf(0.3, 0.9);
+        assert!((f * std::f32::consts::PI - Vec3::new(0.5, 0.25, 1.0)).length() < 1e-6);
+        assert_eq!(d.mirror(0.5), Vec3::ZERO);
+        let m = BsdfKind::Conductor {
+            specular_reflectance: Vec3::splat(0.9),
+        };
+        let b = BsdfKind::Blend {
+            weight: 0.25,
+            a: Box::new(d.clone()),
+            b: Box::new(m),
+        };
+        assert!((b.diffuse_brdf(0.3, 0.9) - f * 0.75).length() < 1e-6);
+        assert!((b.mirror(0.5) - Vec3::splat(0.225)).length() < 1e-6);
+        assert!(b.has_diffuse() && b.has_mirror());
+    }
+
+    #[test]
+    fn plastic_energy_is_at_most_one() {
+        // White plastic: diffuse albedo plus specular albedo stays <= 1 at every angle.
+        let p = BsdfKind::Plastic {
+            diffuse_reflectance: Vec3::ONE,
+            specular_reflectance: Vec3::ONE,
+            eta: 1.49 / 1.000277,
+            nonlinear: false,
+        };
+        for cv in [0.1f32, 0.5, 0.9, 1.0] {
+            let n = 4000;
+            let diffuse: f32 = (0..n)
+                .map(|k| {
+                    // Integral over the hemisphere of f cos: 2 pi integral f(c) c dc.
+                    let c = (k as f32 + 0.5) / n as f32;
+                    2.0 * std::f32::consts::PI * p.diffuse_brdf(c, cv).x * c / n as f32
+                })
+                .sum();
+            let total = diffuse + p.mirror(cv).x;
+            // Mitsuba's model uses a fitted Fdr, so it is conserving only to ~0.1%.
+            assert!(total <= 1.005 && total > 0.85, "cos {cv}: albedo {total}");
+        }
+    }
+}
