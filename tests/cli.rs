@@ -1,0 +1,190 @@
+//! End-to-end tests of the `radtrace` command: known answers, determinism, stats,
+//! and clear errors on bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn radtrace(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_radtrace")).args(args).output().expect("runs radtrace")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn repo(p: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(p).to_string_lossy().into_owned()
+}
+
+fn tmp() -> tempfile::TempDir {
+    tempfile::tempdir().expect("temp dir")
+}
+
+fn s(p: &Path) -> String {
+    p.to_string_lossy().into_owned()
+}
+
+/// A floor (diffuse 0.5, 4x4 m) under a point light 2 m up, seen from straight above.
+const PLANE_SCENE: &str = r#"<scene version="3.0.0">
+  <default name="res" value="33"/>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="2"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
+  </shape>
+  <emitter type="point">
+    <point name="position" x="0" y="0" z="2"/>
+    <rgb name="intensity" value="10"/>
+  </emitter>
+  <sensor type="perspective">
+    <float name="fov" value="20"/>
+    <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="$res"/><integer name="height" value="$res"/></film>
+  </sensor>
+</scene>
+"#;
+
+fn write_scene(dir: &Path, text: &str) -> PathBuf {
+    let p = dir.join("scene.xml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+#[test]
+fn point_light_on_a_plane_renders_the_closed_form_radiance() {
+    let d = tmp();
+    let scene = write_scene(d.path(), PLANE_SCENE);
+    let out = d.path().join("plane.exr");
+    let o = radtrace(&["render", &s(&scene), "-o", &s(&out), "--spp", "4", "--filter", "box", "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = radtrace::io::read_image(&out).unwrap();
+    assert_eq!((img.width, img.height), (33, 33));
+    // Centre pixel: L = rho/pi * I / h^2 (the light is straight above).
+    let centre = img.pixels[(16 * 33 + 16) as usize];
+    let expect = 0.5 / std::f32::consts::PI * 10.0 / 4.0;
+    assert!((centre.x - expect).abs() < 0.002 * expect, "{centre:?} vs {expect}");
+    // Off-centre pixels are darker (cosine and distance falloff), symmetrically.
+    let left = img.pixels[(16 * 33 + 2) as usize].x;
+    let right = img.pixels[(16 * 33 + 30) as usize].x;
+    assert!(left < centre.x && (left - right).abs() < 0.01 * left, "{left} {right}");
+}
+
+#[test]
+fn the_same_seed_gives_the_same_image_with_one_or_two_threads() {
+    let d = tmp();
+    let scene = write_scene(d.path(), PLANE_SCENE);
+    let mut images = vec![];
+    for threads in ["1", "2"] {
+        let out = d.path().join(format!("t{threads}.exr"));
+        let o = radtrace(&[
+            "render", &s(&scene), "-o", &s(&out), "--spp", "3", "--seed", "7", "--threads", threads, "-q",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        images.push(radtrace::io::read_image(&out).unwrap());
+    }
+    assert_eq!(images[0], images[1]);
+}
+
+#[test]
+fn stats_json_has_the_documented_keys() {
+    let d = tmp();
+    let scene = write_scene(d.path(), PLANE_SCENE);
+    let (out, stats) = (d.path().join("a.png"), d.path().join("stats.json"));
+    let o = radtrace(&["render", &s(&scene), "-o", &s(&out), "--spp", "2", "--stats", &s(&stats), "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    let pixels = 33 * 33 * 2;
+    assert_eq!(j["primary_rays"], pixels);
+    // Every primary ray hits the floor, which sees the light: one shadow ray each.
+    assert_eq!(j["diffuse_hits"], pixels);
+    assert_eq!(j["shadow_rays"], pixels);
+    for k in ["total", "load", "accel", "render"] {
+        assert!(j["time_s"][k].as_f64().unwrap() >= 0.0, "time_s.{k}");
+    }
+    assert!(out.exists());
+}
+
+#[test]
+fn defines_override_scene_defaults() {
+    let d = tmp();
+    let scene = write_scene(d.path(), PLANE_SCENE);
+    let out = d.path().join("small.exr");
+    let o = radtrace(&["render", &s(&scene), "-o", &s(&out), "-D", "res=8", "--spp", "1", "-q"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = radtrace::io::read_image(&out).unwrap();
+    assert_eq!((img.width, img.height), (8, 8));
+}
+
+/// Runs radtrace expecting exit code 2 and one error line containing `needle`.
+fn expect_error(args: &[&str], needle: &str) {
+    let o = radtrace(args);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "args {args:?}: {err}");
+    assert!(err.contains(needle), "args {args:?}: '{err}' should mention '{needle}'");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+#[test]
+fn bad_input_gives_one_clear_error_and_exit_code_2() {
+    let d = tmp();
+    let scene = write_scene(d.path(), PLANE_SCENE);
+    let out = s(&d.path().join("x.png"));
+    expect_error(&["render", "no/such/scene.xml", "-o", &out], "no/such/scene.xml");
+    expect_error(&["render", &s(d.path()), "-o", &out], &s(d.path()));
+    expect_error(&["render", &s(&scene), "-o", &out, "--view", "3"], "--view 3");
+    expect_error(&["render", &s(&scene), "-o", &s(&d.path().join("x.jpg"))], "x.jpg");
+    expect_error(&["render", &s(&scene), "-o", &out, "--spp", "0"], "--spp");
+    expect_error(&["render", &s(&scene), "-o", &out, "-D", "novalue"], "NAME=VALUE");
+    let bad = d.path().join("bad.xml");
+    std::fs::write(&bad, "<scene version=\"3.0.0\">\n  <shape type=\"rectangle\">\n</scene>\n").unwrap();
+    expect_error(&["render", &s(&bad), "-o", &out], "bad.xml:");
+    expect_error(&["tessellate", "missing.bpt", "-o", &s(&d.path().join("t.obj"))], "missing.bpt");
+    expect_error(&["compare", "a.exr", "b.exr"], "a.exr");
+}
+
+#[test]
+fn methods_of_later_passes_say_they_are_not_available_yet() {
+    let d = tmp();
+    let scene = write_scene(d.path(), PLANE_SCENE);
+    let out = s(&d.path().join("x.png"));
+    for m in ["twopass", "norm", "local", "global"] {
+        expect_error(&["render", &s(&scene), "-o", &out, "--method", m], m);
+    }
+}
+
+#[test]
+fn compare_of_an_image_with_itself_is_zero() {
+    let d = tmp();
+    let scene = write_scene(d.path(), PLANE_SCENE);
+    let out = d.path().join("a.exr");
+    assert!(radtrace(&["render", &s(&scene), "-o", &s(&out), "--spp", "1", "-q"]).status.success());
+    let o = radtrace(&["compare", &s(&out), &s(&out), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["flip"], 0.0);
+    assert_eq!(j["rmse"], 0.0);
+}
+
+#[test]
+fn the_repository_scenes_load_and_render_small() {
+    let d = tmp();
+    for (scene, extra) in [
+        ("scenes/cornell-box/cornell-box.xml", vec![]),
+        ("scenes/paper-room/paper-room.xml", vec!["--view", "0"]),
+        ("scenes/paper-room/paper-room.xml", vec!["--view", "1"]),
+    ] {
+        let out = d.path().join("r.exr");
+        let mut args = vec!["render", &scene[..], "-o"];
+        let outs = s(&out);
+        let scene_path = repo(scene);
+        args[1] = &scene_path;
+        args.push(&outs);
+        args.extend(["--width", "24", "--height", "24", "--spp", "1", "--area-samples", "4", "-q"]);
+        args.extend(extra.iter().copied());
+        let o = radtrace(&args);
+        assert!(o.status.success(), "{scene}: {}", stderr(&o));
+        let img = radtrace::io::read_image(&out).unwrap();
+        let mean: f32 = img.pixels.iter().map(|p| p.element_sum()).sum::<f32>() / img.pixels.len() as f32;
+        assert!(mean.is_finite() && mean > 0.01, "{scene}: mean {mean}");
+        assert!(img.pixels.iter().all(|p| p.is_finite()), "{scene}: non-finite pixels");
+    }
+}
