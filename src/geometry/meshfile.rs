@@ -512,6 +512,8 @@ fn ply_error(path: &Path, e: ParseError, ascii_lines: bool, element: &str) -> Er
             .to_string(),
         None => text,
     };
+    // Quoted input lines come with their line break.
+    let text = text.replace("\r\n'", "'").replace("\n'", "'");
     let mut msg: String = text
         .chars()
         .map(|c| if c.is_control() { ' ' } else { c })
@@ -519,6 +521,10 @@ fn ply_error(path: &Path, e: ParseError, ascii_lines: bool, element: &str) -> Er
         .split_whitespace()
         .collect::<Vec<_>>()
         .join(" ");
+    // ply-rs appends its parser's internal state after " Error: "; keep the gist.
+    if let Some(i) = msg.find(" Error: ") {
+        msg.truncate(i);
+    }
     if msg.chars().count() > 200 {
         msg = msg.chars().take(200).collect::<String>() + "...";
     }
@@ -739,4 +745,630 @@ pub fn write_obj(mesh: &TriMesh, path: &Path) -> Result<()> {
         s.push('\n');
     }
     std::fs::write(path, s).map_err(|e| Error::io(path, e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::PathBuf;
+
+    fn data(name: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/data/mesh")
+            .join(name)
+    }
+
+    fn write(dir: &tempfile::TempDir, name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {
+        let p = dir.path().join(name);
+        std::fs::write(&p, bytes).unwrap();
+        p
+    }
+
+    fn obj_err(p: &Path) -> String {
+        read_obj(p, false).expect_err("should fail").to_string()
+    }
+
+    /// Positions of the corners of patch `k` (a polygon).
+    fn polygon(m: &TriMesh, k: usize) -> Vec<Vec3> {
+        let Patch::Polygon(v) = &m.patches[k] else {
+            panic!("not a polygon");
+        };
+        v.iter().map(|&i| m.positions[i as usize]).collect()
+    }
+
+    /// Checks the things every cube [0,1]^3 made of 6 quads must satisfy.
+    fn check_cube(m: &TriMesh) {
+        m.validate().unwrap();
+        assert_eq!(m.patches.len(), 6);
+        assert_eq!(m.triangle_count(), 12);
+        assert!((m.area() - 6.0).abs() < 1e-6);
+        assert_eq!(m.bounds(), Some((Vec3::ZERO, Vec3::ONE)));
+        let centre = Vec3::splat(0.5);
+        for t in 0..12 {
+            let [a, b, c] = m.triangle(t);
+            let g = (b - a).cross(c - a);
+            // Counter-clockwise seen from outside.
+            assert!(g.dot(a - centre) > 0.0, "triangle {t}");
+            assert_eq!(m.tri_patch[t] as usize, t / 2);
+        }
+    }
+
+    #[test]
+    fn obj_quad_is_one_patch_two_triangles() {
+        let m = read_obj(&data("quad.obj"), false).unwrap();
+        m.validate().unwrap();
+        assert_eq!(m.positions.len(), 4);
+        assert_eq!(m.patches, vec![Patch::Polygon(vec![0, 1, 2, 3])]);
+        assert_eq!(m.indices, vec![[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(m.tri_patch, vec![0, 0]);
+        assert!(m.uvs.is_empty());
+        // No vn: smooth (here: flat) normals, +z.
+        assert_eq!(m.normals, vec![Vec3::Z; 4]);
+        let flat = read_obj(&data("quad.obj"), true).unwrap();
+        assert!(flat.normals.is_empty());
+        assert_eq!(flat.indices, m.indices);
+    }
+
+    #[test]
+    fn obj_relative_indices() {
+        let m = read_obj(&data("relative.obj"), false).unwrap();
+        assert_eq!(m.triangle_count(), 2);
+        assert_eq!(
+            m.triangle(0),
+            [
+                Vec3::ZERO,
+                Vec3::new(1.0, 0.0, 0.0),
+                Vec3::new(1.0, 1.0, 0.0)
+            ]
+        );
+        assert_eq!(
+            m.triangle(1),
+            [
+                Vec3::ZERO,
+                Vec3::new(1.0, 1.0, 0.0),
+                Vec3::new(0.0, 1.0, 0.0)
+            ]
+        );
+        // Vertices shared between the two faces are one vertex.
+        assert_eq!(m.positions.len(), 4);
+    }
+
+    #[test]
+    fn obj_keeps_given_normals() {
+        let m = read_obj(&data("cube_vn.obj"), false).unwrap();
+        check_cube(&m);
+        assert_eq!(m.positions.len(), 24);
+        for t in 0..12 {
+            let [a, b, c] = m.triangle(t);
+            let g = (b - a).cross(c - a).normalize();
+            for &i in &m.indices[t] {
+                assert_eq!(m.normals[i as usize], g);
+            }
+        }
+        assert_eq!(polygon(&m, 1)[0], Vec3::new(0.0, 0.0, 1.0));
+        // face_normals: vn ignored, corners shared again.
+        let f = read_obj(&data("cube_vn.obj"), true).unwrap();
+        check_cube(&f);
+        assert!(f.normals.is_empty());
+        assert_eq!(f.positions.len(), 8);
+    }
+
+    #[test]
+    fn obj_shared_vertices_get_smooth_normals() {
+        let m = read_obj(&data("cube_shared.obj"), false).unwrap();
+        check_cube(&m);
+        assert_eq!(m.positions.len(), 8);
+        for (p, n) in m.positions.iter().zip(&m.normals) {
+            // Each corner: three faces meeting at right angles, equally weighted.
+            let want = (*p - Vec3::splat(0.5)).normalize();
+            assert!((*n - want).length() < 1e-5, "{p} {n}");
+        }
+    }
+
+    #[test]
+    fn smooth_normals_are_angle_weighted() {
+        // A vertex shared by a big and a small face at right angles, where the
+        // small face is split in two triangles; angle weighting sees 90 degrees
+        // from each face, whatever the triangulation.
+        let dir = tempfile::tempdir().unwrap();
+        let p = write(
+            &dir,
+            "l.obj",
+            "v 0 0 0\nv 10 0 0\nv 10 10 0\nv 0 10 0\nv 0 0 -1\nv 0 10 -1\nv 0 5 -1\n\
+             f 1 2 3 4\nf 1 4 6 7 5\n",
+        );
+        let m = read_obj(&p, false).unwrap();
+        assert_eq!(m.patches.len(), 2);
+        assert_eq!(m.triangle_count(), 2 + 3);
+        let n0 = m.normals[0];
+        let want = Vec3::new(-1.0, 0.0, 1.0).normalize();
+        assert!((n0 - want).length() < 1e-5, "{n0}");
+    }
+
+    #[test]
+    fn obj_uvs_and_polygons() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = write(
+            &dir,
+            "hex.obj",
+            "v 1 0 0\nv 0.5 0.8 0\nv -0.5 0.8 0\nv -1 0 0\nv -0.5 -0.8 0\nv 0.5 -0.8 0\n\
+             vt 0.1 0.2\nvt 0.3\nvn 0 0 2\n\
+             f 1/1/1 2/2/1 3/1/1 4/2/1 5/1/1 6/2/1\n",
+        );
+        let m = read_obj(&p, false).unwrap();
+        assert_eq!(m.patches.len(), 1);
+        assert_eq!(m.triangle_count(), 4);
+        assert_eq!(m.uvs[0], Vec2::new(0.1, 0.2));
+        assert_eq!(m.uvs[1], Vec2::new(0.3, 0.0));
+        assert!(m.normals.iter().all(|&n| n == Vec3::Z));
+        assert_eq!(m.indices[3], [0, 4, 5]);
+    }
+
+    #[test]
+    fn obj_degenerate_face_is_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = write(&dir, "d.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n");
+        let m = read_obj(&p, false).unwrap();
+        assert_eq!(m.triangle_count(), 1);
+        assert_eq!(m.area(), 0.0);
+        assert!(m.normals.iter().all(|n| n.is_finite() && n.length() > 0.99));
+    }
+
+    #[test]
+    fn obj_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let e = obj_err(&data("bad_index.obj"));
+        assert!(
+            e.contains("bad_index.obj:5:7: vertex index 5 out of range (only 3 defined)"),
+            "{e}"
+        );
+
+        let cases: &[(&str, &str)] = &[
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n",
+                ":4:3: vertex index 0",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 1 2\n",
+                ":4:3: relative vertex index -4",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n",
+                ":4:1: face has 2 vertices",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf\n",
+                ":4:1: face has 0 vertices",
+            ),
+            (
+                "v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+                ":1:7: 'nan' is not a finite number",
+            ),
+            ("v 0 0 1e39\n", ":1:7: '1e39' is not a finite number"),
+            ("v 0 0 -inf\n", ":1:7: '-inf' is not a finite number"),
+            ("v 0 0 x\n", ":1:7: 'x' is not a number"),
+            ("v 0 0\n", ":1:1: 'v' needs 3 coordinates"),
+            ("vn 0 0\n", ":1:1: 'vn' needs 3 coordinates"),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3/1\n",
+                ":4:7: texture coordinate index 1 out of range",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//2\n",
+                ":5:13: normal index 2 out of range",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3/1/1/1\n",
+                ":4:7: bad face vertex",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 /3\n",
+                ":4:7: bad face vertex",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 a\n",
+                ":4:7: bad face vertex 'a'",
+            ),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999999999\n",
+                ":4:7: bad face vertex",
+            ),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\n", ": no faces"),
+            ("", ": no faces"),
+            ("# only a comment\n", ": no faces"),
+        ];
+        for (i, (text, want)) in cases.iter().enumerate() {
+            let p = write(&dir, &format!("case{i}.obj"), text);
+            let e = obj_err(&p);
+            assert!(
+                e.starts_with(&p.display().to_string()) && e.contains(want),
+                "case {i}: {e:?} lacks {want:?}"
+            );
+            assert!(!e.contains('\n'));
+        }
+        // `3/` (an empty texture coordinate index) means none.
+        let p = write(&dir, "slash.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/ 2/ 3/\n");
+        assert_eq!(read_obj(&p, false).unwrap().triangle_count(), 1);
+
+        let p = dir.path().join("missing.obj");
+        assert!(matches!(read_obj(&p, false), Err(Error::Io { .. })));
+        assert!(obj_err(&p).starts_with(&p.display().to_string()));
+        let p = write(&dir, "bin.obj", [b'v', b' ', 0xff, 0xfe, b'\n']);
+        assert!(obj_err(&p).contains(":1:3: not UTF-8"));
+    }
+
+    #[test]
+    fn obj_forward_references_and_ignored_statements() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = write(
+            &dir,
+            "fwd.obj",
+            "mtllib nope.mtl\no a\ng b c\ns 1\nusemtl x\nf 1 2 3 # comment\nl 1 2\np 1\n\
+             v 0 0 0 1\nv 1 0 0 0.5 0.5 0.5\nv 0 1 0\nvp 0.1\n",
+        );
+        let m = read_obj(&p, false).unwrap();
+        assert_eq!(m.triangle_count(), 1);
+        assert_eq!(m.patches.len(), 1);
+    }
+
+    /// A cube [0,1]^3 as a PLY file; `fmt` is the format name.
+    fn cube_ply(fmt: &str, double: bool, normals: bool, uv: bool) -> Vec<u8> {
+        let corners: Vec<[f64; 3]> = (0..8)
+            .map(|i| {
+                let [x, y] = [[0, 0], [1, 0], [1, 1], [0, 1]][i % 4];
+                [x as f64, y as f64, (i / 4) as f64]
+            })
+            .collect();
+        let faces: [[i32; 4]; 6] = [
+            [0, 3, 2, 1],
+            [4, 5, 6, 7],
+            [0, 1, 5, 4],
+            [3, 7, 6, 2],
+            [0, 4, 7, 3],
+            [1, 2, 6, 5],
+        ];
+        let ty = if double { "double" } else { "float" };
+        let mut h = format!("ply\nformat {fmt} 1.0\ncomment cube\nelement vertex 8\n");
+        for n in ["x", "y", "z"] {
+            h += &format!("property {ty} {n}\n");
+        }
+        if normals {
+            h += "property float nx\nproperty float ny\nproperty float nz\n";
+        }
+        if uv {
+            h += "property float s\nproperty float t\n";
+        }
+        h += "property uchar red\nelement face 6\nproperty list uchar int vertex_indices\n\
+              property int flags\nelement edge 1\nproperty int vertex1\nproperty int vertex2\n\
+              end_header\n";
+        let mut out = h.into_bytes();
+        let vals = |i: usize| -> Vec<f64> {
+            let c = corners[i];
+            let mut v = c.to_vec();
+            if normals {
+                v.extend(
+                    (Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) - 0.5)
+                        .normalize()
+                        .to_array()
+                        .map(f64::from),
+                );
+            }
+            if uv {
+                v.extend([c[0], c[1]]);
+            }
+            v
+        };
+        if fmt == "ascii" {
+            let mut s = String::new();
+            for i in 0..8 {
+                for x in vals(i) {
+                    s += &format!("{x} ");
+                }
+                s += "255\n";
+            }
+            for f in faces {
+                s += &format!("4 {} {} {} {} 0\n", f[0], f[1], f[2], f[3]);
+            }
+            s += "0 1\n";
+            out.extend(s.into_bytes());
+        } else {
+            let be = fmt == "binary_big_endian";
+            let f32b = |x: f32| if be { x.to_be_bytes() } else { x.to_le_bytes() };
+            let i32b = |x: i32| if be { x.to_be_bytes() } else { x.to_le_bytes() };
+            for i in 0..8 {
+                for (k, x) in vals(i).into_iter().enumerate() {
+                    if double && k < 3 {
+                        out.extend(if be { x.to_be_bytes() } else { x.to_le_bytes() });
+                    } else {
+                        out.extend(f32b(x as f32));
+                    }
+                }
+                out.push(255);
+            }
+            for f in faces {
+                out.push(4);
+                for i in f {
+                    out.extend(i32b(i));
+                }
+                out.extend(i32b(7));
+            }
+            out.extend(i32b(0));
+            out.extend(i32b(1));
+        }
+        out
+    }
+
+    #[test]
+    fn ply_cube_all_formats() {
+        let dir = tempfile::tempdir().unwrap();
+        let fixture = read_ply(&data("cube_ascii.ply"), false).unwrap();
+        check_cube(&fixture);
+        for fmt in ["ascii", "binary_little_endian", "binary_big_endian"] {
+            for (double, normals, uv) in [
+                (false, false, false),
+                (true, true, false),
+                (false, true, true),
+            ] {
+                let p = write(&dir, "cube.ply", cube_ply(fmt, double, normals, uv));
+                let m = read_ply(&p, false).unwrap_or_else(|e| panic!("{fmt}: {e}"));
+                check_cube(&m);
+                assert_eq!(m.positions, fixture.positions, "{fmt}");
+                assert_eq!(m.indices, fixture.indices, "{fmt}");
+                assert_eq!(m.patches, fixture.patches, "{fmt}");
+                assert_eq!(m.normals.len(), 8);
+                for (p, n) in m.positions.iter().zip(&m.normals) {
+                    assert!((*n - (*p - 0.5).normalize()).length() < 1e-5);
+                }
+                if uv {
+                    assert_eq!(m.uvs[2], Vec2::new(1.0, 1.0));
+                } else {
+                    assert!(m.uvs.is_empty());
+                }
+                let f = read_ply(&p, true).unwrap();
+                assert!(f.normals.is_empty());
+                assert_eq!(f.indices, m.indices);
+            }
+        }
+    }
+
+    #[test]
+    fn ply_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let err = |name: &str, bytes: Vec<u8>| -> String {
+            let p = write(&dir, name, bytes);
+            let e = read_ply(&p, false).expect_err("should fail").to_string();
+            assert!(e.starts_with(&p.display().to_string()), "{e}");
+            assert!(!e.contains('\n'), "{e:?}");
+            e
+        };
+        // Truncated binary data, at every length short of complete.
+        for fmt in ["binary_little_endian", "binary_big_endian"] {
+            let full = cube_ply(fmt, false, false, false);
+            let header = full.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+            for cut in header..full.len() {
+                let e = err("trunc.ply", full[..cut].to_vec());
+                assert!(
+                    e.contains("file too short") || e.contains("binary data ends early"),
+                    "{fmt} cut at {cut}: {e}"
+                );
+            }
+        }
+        // Truncated ASCII data names the line where it ran out.
+        let full = cube_ply("ascii", false, false, false);
+        let text = String::from_utf8(full).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        let e = err(
+            "t.ply",
+            (lines[..lines.len() - 3].join("\n") + "\n").into_bytes(),
+        );
+        assert!(
+            e.contains(
+                "t.ply:28: Unexpected end of file while reading element 'face' (expected 6, got 4)"
+            ),
+            "{e}"
+        );
+
+        let ascii = |body: &str| {
+            format!(
+                "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+                 property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+                 end_header\n{body}"
+            )
+            .into_bytes()
+        };
+        let e = err("range.ply", ascii("0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n"));
+        assert!(
+            e.contains(":13: face 0: vertex index 3 out of range"),
+            "{e}"
+        );
+        let e = err("neg.ply", ascii("0 0 0\n1 0 0\n0 1 0\n3 0 1 -1\n"));
+        assert!(e.contains("vertex index -1 out of range"), "{e}");
+        let e = err("two.ply", ascii("0 0 0\n1 0 0\n0 1 0\n2 0 1\n"));
+        assert!(e.contains(":13: face 0: 2 vertices"), "{e}");
+        let e = err("junk.ply", ascii("0 0 0\n1 x 0\n0 1 0\n3 0 1 2\n"));
+        assert!(
+            e.ends_with("junk.ply:11: Couldn't read element line. String: '1 x 0'"),
+            "{e}"
+        );
+        let e = err("short.ply", ascii("0 0 0\n1 0 0\n0 1 0\n"));
+        assert!(
+            e.contains("short.ply:13: Unexpected end of file while reading element 'face'"),
+            "{e}"
+        );
+
+        // Binary NaN coordinates.
+        let mut b = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n\
+                      property float y\nproperty float z\nelement face 1\n\
+                      property list uchar uint vertex_indices\nend_header\n"
+            .to_vec();
+        for x in [0.0f32, 0.0, 0.0, 1.0, 0.0, f32::NAN, 0.0, 1.0, 0.0] {
+            b.extend(x.to_le_bytes());
+        }
+        b.push(3);
+        for i in [0u32, 1, 2] {
+            b.extend(i.to_le_bytes());
+        }
+        let e = err("nan.ply", b.clone());
+        assert!(e.ends_with(": vertex 1: position is not finite"), "{e}");
+        // Huge list count in binary data.
+        let n = b.len();
+        b[n - 13] = 255;
+        let e = err("list.ply", b);
+        assert!(
+            e.contains("binary data ends early, in element 'face'"),
+            "{e}"
+        );
+
+        // Header problems.
+        let head = |s: &str| s.as_bytes().to_vec();
+        for (bytes, want) in [
+            (head(""), "magic"),
+            (head("ply\n"), "end_header"),
+            (
+                head("plx\nformat ascii 1.0\nend_header\n"),
+                "h.ply:1: Expected magic number 'ply'. String: 'plx'",
+            ),
+            (
+                head("ply\nformat ascii 1.0\nend_header\n"),
+                "no 'vertex' element",
+            ),
+            (
+                head("ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nend_header\n"),
+                "no 'y' property",
+            ),
+            (
+                head(
+                    "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\n\
+                     property float z\nend_header\n",
+                ),
+                "no faces",
+            ),
+            (
+                head(
+                    "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\n\
+                     property float z\nelement face 0\nproperty list uchar int vertex_indices\n\
+                     end_header\n",
+                ),
+                "no faces",
+            ),
+            (
+                head(
+                    "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\n\
+                     property float x\nproperty float y\nproperty float z\nelement face 1\n\
+                     property list uchar int vertex_indices\nend_header\n",
+                ),
+                "file too short: 4000000000 'vertex' elements",
+            ),
+            (
+                head(
+                    "ply\nformat binary_little_endian 1.0\nelement vertex 3\n\
+                     property float x\nproperty float y\nproperty float z\nelement face 1\n\
+                     property list uchar float vertex_indices\nend_header\n",
+                ),
+                "not a list of integers",
+            ),
+            (
+                head(
+                    "ply\nformat binary_little_endian 1.0\nelement nothing 99999999999\n\
+                     element vertex 3\n\
+                     property float x\nproperty float y\nproperty float z\nelement face 1\n\
+                     property list uchar int vertex_indices\nend_header\n",
+                ),
+                "file too short",
+            ),
+        ] {
+            let e = err("h.ply", bytes);
+            assert!(e.contains(want), "{e:?} lacks {want:?}");
+        }
+        let p = dir.path().join("missing.ply");
+        assert!(matches!(read_ply(&p, false), Err(Error::Io { .. })));
+    }
+
+    #[test]
+    fn write_obj_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let teapot = crate::geometry::bezier::read_bpt(&data("teapot.bpt")).unwrap();
+        let meshes = [
+            crate::geometry::bezier::tessellate(&teapot, 2, 3),
+            read_obj(&data("cube_shared.obj"), true).unwrap(),
+            read_obj(&data("cube_vn.obj"), false).unwrap(),
+        ];
+        for (k, m) in meshes.iter().enumerate() {
+            let p = dir.path().join(format!("out{k}.obj"));
+            write_obj(m, &p).unwrap();
+            let text = std::fs::read_to_string(&p).unwrap();
+            assert!(text.starts_with("# written by radtrace\n"));
+            let r = read_obj(&p, false).unwrap();
+            r.validate().unwrap();
+            assert_eq!(r.triangle_count(), m.triangle_count());
+            // Vertices are renumbered in order of first use: compare triangle by triangle.
+            for t in 0..m.triangle_count() {
+                assert_eq!(r.triangle(t), m.triangle(t), "mesh {k} triangle {t}");
+                for c in 0..3 {
+                    let (i, j) = (m.indices[t][c] as usize, r.indices[t][c] as usize);
+                    if !m.normals.is_empty() {
+                        assert!((r.normals[j] - m.normals[i]).length() < 1e-6);
+                    }
+                    if !m.uvs.is_empty() {
+                        assert_eq!(r.uvs[j], m.uvs[i]);
+                    }
+                }
+            }
+            assert_eq!(r.uvs.is_empty(), m.uvs.is_empty());
+        }
+        let bad = dir.path().join("no/such/dir/x.obj");
+        assert!(matches!(write_obj(&meshes[1], &bad), Err(Error::Io { .. })));
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(200))]
+
+        #[test]
+        fn obj_random_bytes_never_panic(bytes in proptest::collection::vec(proptest::num::u8::ANY, 0..300)) {
+            let dir = tempfile::tempdir().unwrap();
+            let p = write(&dir, "x.obj", &bytes);
+            if let Ok(m) = read_obj(&p, false) {
+                proptest::prop_assert!(m.validate().is_ok());
+            }
+        }
+
+        #[test]
+        fn obj_random_text_never_panics(text in "([vtnf/ 0-9.\\-e]{0,12}\n){0,12}") {
+            let dir = tempfile::tempdir().unwrap();
+            let p = write(&dir, "x.obj", &text);
+            for flat in [false, true] {
+                if let Ok(m) = read_obj(&p, flat) {
+                    proptest::prop_assert!(m.validate().is_ok());
+                    proptest::prop_assert!(m.normals.iter().all(|n| n.is_finite()));
+                }
+            }
+        }
+
+        #[test]
+        fn ply_random_bytes_never_panic(bytes in proptest::collection::vec(proptest::num::u8::ANY, 0..300)) {
+            let dir = tempfile::tempdir().unwrap();
+            let p = write(&dir, "x.ply", &bytes);
+            let _ = read_ply(&p, false);
+        }
+
+        #[test]
+        fn ply_mutated_never_panics(
+            fmt in 0usize..3,
+            edits in proptest::collection::vec((0usize..1000, proptest::num::u8::ANY), 1..6),
+            cut in 0usize..1000,
+        ) {
+            let fmt = ["ascii", "binary_little_endian", "binary_big_endian"][fmt];
+            let mut b = cube_ply(fmt, false, true, false);
+            for (at, x) in edits {
+                let n = b.len();
+                b[at % n] = x;
+            }
+            b.truncate(b.len() - cut % b.len());
+            let dir = tempfile::tempdir().unwrap();
+            let p = write(&dir, "x.ply", &b);
+            if let Ok(m) = read_ply(&p, false) {
+                proptest::prop_assert!(m.validate().is_ok());
+            }
+        }
+    }
 }
