@@ -744,7 +744,7 @@ pub fn write_obj(mesh: &TriMesh, path: &Path) -> Result<()> {
         }
         s.push('\n');
     }
-    std::fs::write(path, s).map_err(|e| Error::io(path, e))
+    crate::io::write_atomic(path, s.as_bytes())
 }
 
 #[cfg(test)]
