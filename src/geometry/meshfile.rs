@@ -7,12 +7,12 @@ use crate::Result;
 
 /// Reads an OBJ file as one mesh (materials ignored, as Mitsuba's `obj` does); each
 /// face becomes one `Patch::Polygon`.
-pub fn read_obj(_path: &Path) -> Result<TriMesh> {
+pub fn read_obj(_path: &Path, _face_normals: bool) -> Result<TriMesh> {
     todo!("helper: geometry")
 }
 
 /// Reads a PLY file (ASCII or binary) as one mesh; each face becomes one patch.
-pub fn read_ply(_path: &Path) -> Result<TriMesh> {
+pub fn read_ply(_path: &Path, _face_normals: bool) -> Result<TriMesh> {
     todo!("helper: geometry")
 }
 
