@@ -1,0 +1,929 @@
+use std::f32::consts::PI;
+use std::fs;
+
+use glam::{Mat4, Vec3, Vec4};
+use tempfile::TempDir;
+
+use super::*;
+use crate::geometry::Patch;
+
+const SENSOR: &str = r#"<sensor type="perspective"><float name="fov" value="45"/></sensor>"#;
+
+fn close(a: Vec3, b: Vec3) -> bool {
+    (a - b).length() < 1e-5
+}
+
+fn mat_close(a: Mat4, b: Mat4) -> bool {
+    a.abs_diff_eq(b, 1e-5)
+}
+
+/// Writes `scene.xml` (and returns the folder, which must outlive the test).
+fn write_scene(xml: &str) -> (TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.xml");
+    fs::write(&path, xml).unwrap();
+    (dir, path)
+}
+
+/// A scene whose line 1 is `<scene>`, line 2 a sensor, and `lines` from line 3 on.
+fn scene(lines: &[&str]) -> String {
+    let mut s = format!("<scene version=\"3.0.0\">\n{SENSOR}\n");
+    for l in lines {
+        s.push_str(l);
+        s.push('\n');
+    }
+    s.push_str("</scene>\n");
+    s
+}
+
+fn load_raw(xml: &str, defines: &[(&str, &str)]) -> Result<Loaded> {
+    let (_dir, path) = write_scene(xml);
+    let defines: Vec<(String, String)> = defines
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+    load(&path, &defines)
+}
+
+fn ok(lines: &[&str]) -> Loaded {
+    match load_raw(&scene(lines), &[]) {
+        Ok(l) => l,
+        Err(e) => panic!("unexpected error: {e}"),
+    }
+}
+
+/// Loads a scene that must fail at `line`; returns the message.
+fn err_at(xml: &str, line: u32) -> String {
+    let msg = match load_raw(xml, &[]) {
+        Ok(_) => panic!("expected an error at line {line}:\n{xml}"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        msg.contains(&format!("scene.xml:{line}:")),
+        "error should name scene.xml:{line}: but is: {msg}"
+    );
+    assert!(!msg.contains('\n'), "one line: {msg}");
+    msg
+}
+
+fn err(lines: &[&str], line: u32) -> String {
+    err_at(&scene(lines), line)
+}
+
+fn has_warning(l: &Loaded, line: u32, text: &str) -> bool {
+    l.warnings
+        .iter()
+        .any(|w| w.contains(&format!("scene.xml:{line}:")) && w.contains(text))
+}
+
+fn sensor_with(transform: &str) -> Loaded {
+    let xml = format!(
+        "<scene version=\"3.0.0\">\n<sensor type=\"perspective\">\
+         <transform name=\"to_world\">{transform}</transform></sensor>\n</scene>"
+    );
+    match load_raw(&xml, &[]) {
+        Ok(l) => l,
+        Err(e) => panic!("{e}"),
+    }
+}
+
+// ------------------------------------------------------------- transforms
+
+#[test]
+fn transform_ops_compose_in_document_order() {
+    let l = sensor_with(
+        r#"<scale value="2"/><rotate z="1" angle="90"/><translate x="1" y="2" z="3"/>"#,
+    );
+    let m = l.scene.sensors[0].to_world;
+    let expected = Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0))
+        * Mat4::from_rotation_z(PI / 2.0)
+        * Mat4::from_scale(Vec3::splat(2.0));
+    assert!(mat_close(m, expected));
+    // By hand: (1,0,0) -> scale (2,0,0) -> rotate (0,2,0) -> translate (1,4,3).
+    assert!(close(m.transform_point3(Vec3::X), Vec3::new(1.0, 4.0, 3.0)));
+    // Reversed order gives another matrix: translate first, then rotate and scale.
+    let l = sensor_with(
+        r#"<translate value="1, 2, 3"/><rotate value="0 0 1" angle="90"/><scale x="2" y="2" z="2"/>"#,
+    );
+    let m = l.scene.sensors[0].to_world;
+    // (0,0,0) -> (1,2,3) -> (-2,1,3) -> (-4,2,6).
+    assert!(close(
+        m.transform_point3(Vec3::ZERO),
+        Vec3::new(-4.0, 2.0, 6.0)
+    ));
+}
+
+#[test]
+fn scale_with_defaults_and_three_values() {
+    let m = sensor_with(r#"<scale x="3"/>"#).scene.sensors[0].to_world;
+    assert!(mat_close(m, Mat4::from_scale(Vec3::new(3.0, 1.0, 1.0))));
+    let m = sensor_with(r#"<scale value="1 2 3"/>"#).scene.sensors[0].to_world;
+    assert!(mat_close(m, Mat4::from_scale(Vec3::new(1.0, 2.0, 3.0))));
+}
+
+#[test]
+fn lookat_gives_mitsuba_columns() {
+    let l = sensor_with(r#"<lookat origin="1, 2, 10" target="1, 2, 0" up="0, 1, 0"/>"#);
+    let m = l.scene.sensors[0].to_world;
+    // dir = -z, left = normalize(up x dir) = -x, up' = dir x left = +y.
+    assert_eq!(m.x_axis, Vec4::new(-1.0, 0.0, 0.0, 0.0));
+    assert_eq!(m.y_axis, Vec4::new(0.0, 1.0, 0.0, 0.0));
+    assert_eq!(m.z_axis, Vec4::new(0.0, 0.0, -1.0, 0.0));
+    assert_eq!(m.w_axis, Vec4::new(1.0, 2.0, 10.0, 1.0));
+    // An oblique camera: columns orthonormal, z towards the target.
+    let l = sensor_with(r#"<lookat origin="0, 0, 0" target="1, 1, 0" up="0, 0, 1"/>"#);
+    let m = l.scene.sensors[0].to_world;
+    let s = 0.5f32.sqrt();
+    assert!(close(m.z_axis.truncate(), Vec3::new(s, s, 0.0)));
+    assert!(close(m.x_axis.truncate(), Vec3::new(-s, s, 0.0)));
+    assert!(close(m.y_axis.truncate(), Vec3::Z));
+}
+
+#[test]
+fn matrix_is_row_major() {
+    let l = sensor_with(r#"<matrix value="1 0 0 5  0 1 0 6  0 0 1 7  0 0 0 1"/>"#);
+    let m = l.scene.sensors[0].to_world;
+    assert_eq!(m.w_axis, Vec4::new(5.0, 6.0, 7.0, 1.0));
+    assert!(close(
+        m.transform_point3(Vec3::ONE),
+        Vec3::new(6.0, 7.0, 8.0)
+    ));
+}
+
+#[test]
+fn degenerate_lookat_is_an_error() {
+    let m = err(
+        &[
+            r#"<emitter type="spot"><transform name="to_world">"#,
+            r#"<lookat origin="1,1,1" target="1,1,1" up="0,1,0"/>"#,
+            "</transform></emitter>",
+        ],
+        4,
+    );
+    assert!(m.contains("coincide"), "{m}");
+    let m = err(
+        &[
+            r#"<emitter type="spot"><transform name="to_world">"#,
+            r#"<lookat origin="0,0,0" target="0,5,0" up="0,1,0"/>"#,
+            "</transform></emitter>",
+        ],
+        4,
+    );
+    assert!(m.contains("parallel"), "{m}");
+}
+
+// ------------------------------------------------------------- parameters
+
+const PARAM_SCENE: &str = r#"<scene version="3.0.0">
+<default name="spp" value="16"/>
+<default name="res" value="256"/>
+<sensor type="perspective">
+  <float name="fov" value="40"/>
+  <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
+  <film type="hdrfilm">
+    <integer name="width" value="$res"/><integer name="height" value="$res"/>
+  </film>
+</sensor>
+</scene>"#;
+
+#[test]
+fn parameters_take_defaults() {
+    let l = load_raw(PARAM_SCENE, &[]).unwrap();
+    let s = &l.scene.sensors[0];
+    assert_eq!((s.spp, s.width, s.height), (Some(16), 256, 256));
+}
+
+#[test]
+fn defines_override_defaults_and_unknown_defines_warn() {
+    let l = load_raw(PARAM_SCENE, &[("spp", "64"), ("colour", "red")]).unwrap();
+    let s = &l.scene.sensors[0];
+    assert_eq!((s.spp, s.width), (Some(64), 256));
+    assert!(l
+        .warnings
+        .iter()
+        .any(|w| w.contains("scene.xml") && w.contains("'colour'")));
+    assert!(!l.warnings.iter().any(|w| w.contains("'spp'")));
+}
+
+#[test]
+fn undefined_parameter_is_an_error_with_place() {
+    let m = err(
+        &[r#"<shape type="sphere"><float name="radius" value="$size"/></shape>"#],
+        3,
+    );
+    assert!(m.contains("$size"), "{m}");
+    // With a define it loads.
+    let l = load_raw(
+        &scene(&[r#"<shape type="sphere"><float name="radius" value="$size"/></shape>"#]),
+        &[("size", "2")],
+    )
+    .unwrap();
+    let b = l.scene.shapes[0].mesh.bounds().unwrap();
+    assert!((b.1.x - 2.0).abs() < 1e-5);
+}
+
+// ------------------------------------------------------------- values
+
+#[test]
+fn rgb_spectrum_and_points() {
+    let l = ok(&[
+        r#"<bsdf type="diffuse" id="a"><rgb name="reflectance" value="0.2, 0.4 0.6"/></bsdf>"#,
+        r#"<bsdf type="diffuse" id="b"><rgb name="reflectance" value="0.3"/></bsdf>"#,
+        r#"<bsdf type="diffuse" id="c"><spectrum name="reflectance" value="0.25"/></bsdf>"#,
+        r#"<bsdf type="diffuse" id="d"><spectrum name="reflectance" value="400:0.1, 700:0.3"/></bsdf>"#,
+        r#"<bsdf type="diffuse" id="e"><float name="reflectance" value="0.7"/></bsdf>"#,
+        r#"<shape type="cube"><ref id="a"/></shape>"#,
+        r#"<shape type="cube"><ref id="b"/></shape>"#,
+        r#"<shape type="cube"><ref id="c"/></shape>"#,
+        r#"<shape type="cube"><ref id="d"/></shape>"#,
+        r#"<shape type="cube"><ref name="bsdf" id="e"/></shape>"#,
+        r#"<emitter type="point"><point name="position" value="1, 2, 3"/></emitter>"#,
+        r#"<emitter type="point"><point name="position" x="4" z="6"/><rgb name="intensity" value="5"/></emitter>"#,
+    ]);
+    let refl: Vec<Vec3> = l
+        .scene
+        .shapes
+        .iter()
+        .map(|s| match &l.scene.bsdfs[s.bsdf as usize].kind {
+            BsdfKind::Diffuse { reflectance } => *reflectance,
+            k => panic!("{k:?}"),
+        })
+        .collect();
+    assert!(close(refl[0], Vec3::new(0.2, 0.4, 0.6)));
+    assert!(close(refl[1], Vec3::splat(0.3)));
+    assert!(close(refl[2], Vec3::splat(0.25)));
+    assert!(close(refl[3], Vec3::splat(0.2)));
+    assert!(close(refl[4], Vec3::splat(0.7)));
+    assert!(has_warning(&l, 6, "mean"));
+    assert_eq!(
+        l.scene.lights,
+        vec![
+            Light::Point {
+                position: Vec3::new(1.0, 2.0, 3.0),
+                intensity: Vec3::ONE
+            },
+            Light::Point {
+                position: Vec3::new(4.0, 0.0, 6.0),
+                intensity: Vec3::splat(5.0)
+            },
+        ]
+    );
+}
+
+#[test]
+fn point_light_from_to_world() {
+    let l = ok(&[
+        r#"<emitter type="point"><transform name="to_world"><translate x="1" y="5"/></transform><rgb name="intensity" value="1 2 3"/></emitter>"#,
+    ]);
+    assert_eq!(
+        l.scene.lights[0],
+        Light::Point {
+            position: Vec3::new(1.0, 5.0, 0.0),
+            intensity: Vec3::new(1.0, 2.0, 3.0)
+        }
+    );
+}
+
+// ------------------------------------------------------------- emitters
+
+#[test]
+fn spot_angles_in_radians_and_default_beam() {
+    let l = ok(&[
+        r#"<emitter type="spot"><transform name="to_world"><lookat origin="0, 4, 0" target="0, 0, 0" up="0, 0, 1"/></transform>"#,
+        r#"<float name="cutoff_angle" value="30"/><rgb name="intensity" value="10"/></emitter>"#,
+        r#"<emitter type="spot"><float name="cutoff_angle" value="40"/><float name="beam_width" value="10"/></emitter>"#,
+        r#"<emitter type="spot"/>"#,
+    ]);
+    let Light::Spot {
+        position,
+        direction,
+        intensity,
+        cutoff_angle,
+        beam_width,
+    } = l.scene.lights[0]
+    else {
+        panic!()
+    };
+    assert!(close(position, Vec3::new(0.0, 4.0, 0.0)));
+    assert!(close(direction, Vec3::NEG_Y));
+    assert_eq!(intensity, Vec3::splat(10.0));
+    assert!((cutoff_angle - 30f32.to_radians()).abs() < 1e-6);
+    assert!((beam_width - 22.5f32.to_radians()).abs() < 1e-6);
+    let Light::Spot {
+        cutoff_angle,
+        beam_width,
+        ..
+    } = l.scene.lights[1]
+    else {
+        panic!()
+    };
+    assert!((cutoff_angle - 40f32.to_radians()).abs() < 1e-6);
+    assert!((beam_width - 10f32.to_radians()).abs() < 1e-6);
+    let Light::Spot {
+        position,
+        direction,
+        intensity,
+        cutoff_angle,
+        beam_width,
+    } = l.scene.lights[2]
+    else {
+        panic!()
+    };
+    assert_eq!(
+        (position, direction, intensity),
+        (Vec3::ZERO, Vec3::Z, Vec3::ONE)
+    );
+    assert!((cutoff_angle - 20f32.to_radians()).abs() < 1e-6);
+    assert!((beam_width - 15f32.to_radians()).abs() < 1e-6);
+}
+
+#[test]
+fn area_emitter_links_shape_and_light() {
+    let l = ok(&[
+        r#"<shape type="rectangle" id="lamp">"#,
+        r#"  <emitter type="area"><rgb name="radiance" value="10, 8, 6"/></emitter>"#,
+        "</shape>",
+        r#"<shape type="cube"/>"#,
+        r#"<emitter type="point"/>"#,
+    ]);
+    assert_eq!(l.scene.shapes.len(), 2);
+    assert_eq!(l.scene.shapes[0].name, "lamp");
+    assert_eq!(l.scene.shapes[0].emitter, Some(0));
+    assert_eq!(l.scene.shapes[1].emitter, None);
+    assert_eq!(
+        l.scene.lights[0],
+        Light::Area {
+            shape: 0,
+            radiance: Vec3::new(10.0, 8.0, 6.0)
+        }
+    );
+    assert!(matches!(l.scene.lights[1], Light::Point { .. }));
+    // Both shapes share one default BSDF.
+    assert_eq!(l.scene.shapes[0].bsdf, l.scene.shapes[1].bsdf);
+    assert_eq!(l.scene.bsdfs.len(), 1);
+    assert_eq!(l.scene.bsdfs[0], Bsdf::default());
+}
+
+#[test]
+fn unsupported_emitters_warn() {
+    let l = ok(&[
+        r#"<emitter type="constant"><rgb name="radiance" value="1"/></emitter>"#,
+        r#"<emitter type="point"><rgb name="intensity" value="0"/></emitter>"#,
+    ]);
+    assert_eq!(l.scene.lights.len(), 1);
+    assert!(has_warning(&l, 3, "'constant'"));
+    assert!(has_warning(&l, 4, "zero intensity"));
+}
+
+// ------------------------------------------------------------- sensors
+
+#[test]
+fn sensor_fov_film_sampler() {
+    let xml = r#"<scene version="3.0.0">
+<sensor type="perspective">
+  <float name="fov" value="39.3"/>
+  <string name="fov_axis" value="smaller"/>
+  <float name="near_clip" value="0.1"/>
+  <float name="far_clip" value="100"/>
+  <transform name="to_world"><translate z="-5"/></transform>
+  <film type="hdrfilm"><integer name="width" value="640"/><integer name="height" value="480"/>
+    <rfilter type="gaussian"/><string name="pixel_format" value="rgb"/></film>
+  <sampler type="independent"><integer name="sample_count" value="128"/></sampler>
+</sensor>
+<sensor type="perspective"><string name="focal_length" value="35mm"/></sensor>
+<sensor type="thinlens"><float name="fov" value="60"/><float name="aperture_radius" value="0.1"/></sensor>
+</scene>"#;
+    let l = load_raw(xml, &[]).unwrap();
+    let s = &l.scene.sensors;
+    assert_eq!(s.len(), 3);
+    assert_eq!(s[0].fov, 39.3);
+    assert_eq!(s[0].fov_axis, FovAxis::Smaller);
+    assert_eq!((s[0].width, s[0].height, s[0].spp), (640, 480, Some(128)));
+    assert_eq!((s[0].near_clip, s[0].far_clip), (0.1, 100.0));
+    assert_eq!(s[0].to_world.w_axis, Vec4::new(0.0, 0.0, -5.0, 1.0));
+    // 35 mm lens on 35 mm film: the diagonal field of view.
+    let diag = 2.0 * (43.266615f32 / 70.0).atan().to_degrees();
+    assert!((s[1].fov - diag).abs() < 1e-3, "{}", s[1].fov);
+    assert_eq!(s[1].fov_axis, FovAxis::Diagonal);
+    assert_eq!((s[1].width, s[1].height, s[1].spp), (768, 576, None));
+    assert_eq!((s[1].near_clip, s[1].far_clip), (0.01, 10000.0));
+    assert_eq!(s[2].fov, 60.0);
+    assert!(has_warning(&l, 13, "depth of field"));
+    // No warning for the film's own keys or the rfilter.
+    assert!(!l
+        .warnings
+        .iter()
+        .any(|w| w.contains("pixel_format") || w.contains("rfilter")));
+}
+
+#[test]
+fn default_sensor_is_a_50mm_lens() {
+    let l = load_raw(
+        "<scene version=\"3.0.0\"><sensor type=\"perspective\"/></scene>",
+        &[],
+    )
+    .unwrap();
+    let s = &l.scene.sensors[0];
+    let diag = 2.0 * (43.266615f32 / 100.0).atan().to_degrees();
+    assert!((s.fov - diag).abs() < 1e-3);
+    assert_eq!(s.fov_axis, FovAxis::Diagonal);
+}
+
+// ------------------------------------------------------------- BSDFs
+
+#[test]
+fn refs_reuse_one_bsdf_entry() {
+    let l = ok(&[
+        r#"<bsdf type="diffuse" id="white"><rgb name="reflectance" value="0.8"/></bsdf>"#,
+        r#"<bsdf type="diffuse" id="unused"/>"#,
+        r#"<shape type="cube"><ref id="white"/></shape>"#,
+        r#"<shape type="rectangle"><ref name="bsdf" id="white"/></shape>"#,
+        r#"<shape type="disk"><bsdf type="conductor"/></shape>"#,
+    ]);
+    let sh = &l.scene.shapes;
+    assert_eq!(sh[0].bsdf, sh[1].bsdf);
+    assert_ne!(sh[0].bsdf, sh[2].bsdf);
+    assert_eq!(l.scene.bsdfs.len(), 2);
+    assert_eq!(l.scene.bsdfs[sh[0].bsdf as usize].name, "white");
+    assert_eq!(
+        l.scene.bsdfs[sh[2].bsdf as usize].kind,
+        BsdfKind::Conductor {
+            specular_reflectance: Vec3::ONE
+        }
+    );
+    assert_eq!(
+        sh.iter().map(|s| s.name.as_str()).collect::<Vec<_>>(),
+        ["cube#0", "rectangle#1", "disk#2"]
+    );
+}
+
+#[test]
+fn unknown_ref_is_an_error() {
+    let m = err(
+        &[
+            r#"<shape type="cube">"#,
+            r#"  <ref id="nope"/>"#,
+            "</shape>",
+        ],
+        4,
+    );
+    assert!(m.contains("'nope'"), "{m}");
+    // A ref that names something that is not a BSDF.
+    let m = err(
+        &[
+            r#"<shape type="cube" id="box"/>"#,
+            r#"<shape type="cube"><ref id="box"/></shape>"#,
+        ],
+        4,
+    );
+    assert!(m.contains("not a bsdf"), "{m}");
+}
+
+#[test]
+fn twosided_blend_and_plastic() {
+    let l = ok(&[
+        r#"<bsdf type="diffuse" id="red"><rgb name="reflectance" value="0.8 0.1 0.1"/></bsdf>"#,
+        r#"<bsdf type="twosided" id="ts"><ref id="red"/></bsdf>"#,
+        r#"<bsdf type="twosided" id="tsp"><bsdf type="plastic">"#,
+        r#"  <rgb name="diffuse_reflectance" value="0.1, 0.2, 0.3"/><float name="int_ior" value="1.5"/>"#,
+        r#"  <boolean name="nonlinear" value="true"/></bsdf></bsdf>"#,
+        r#"<bsdf type="plastic" id="p2"><string name="int_ior" value="bk7"/><string name="ext_ior" value="air"/></bsdf>"#,
+        r#"<bsdf type="blendbsdf" id="mix"><float name="weight" value="0.25"/>"#,
+        r#"  <ref id="red"/><bsdf type="conductor"><rgb name="specular_reflectance" value="0.9"/></bsdf></bsdf>"#,
+        r#"<shape type="cube"><ref id="ts"/></shape>"#,
+        r#"<shape type="cube"><ref id="tsp"/></shape>"#,
+        r#"<shape type="cube"><ref id="p2"/></shape>"#,
+        r#"<shape type="cube"><ref id="mix"/></shape>"#,
+        r#"<emitter type="point"/>"#,
+    ]);
+    let b = |i: usize| &l.scene.bsdfs[l.scene.shapes[i].bsdf as usize];
+    let red = BsdfKind::Diffuse {
+        reflectance: Vec3::new(0.8, 0.1, 0.1),
+    };
+    assert_eq!(
+        *b(0),
+        Bsdf {
+            name: "ts".into(),
+            kind: red.clone(),
+            twosided: true
+        }
+    );
+    assert!(b(1).twosided);
+    assert_eq!(
+        b(1).kind,
+        BsdfKind::Plastic {
+            diffuse_reflectance: Vec3::new(0.1, 0.2, 0.3),
+            specular_reflectance: Vec3::ONE,
+            eta: 1.5 / 1.000277,
+            nonlinear: true
+        }
+    );
+    let BsdfKind::Plastic {
+        eta,
+        diffuse_reflectance,
+        nonlinear,
+        ..
+    } = b(2).kind
+    else {
+        panic!()
+    };
+    assert!((eta - 1.5046 / 1.000277).abs() < 1e-6);
+    assert_eq!((diffuse_reflectance, nonlinear), (Vec3::splat(0.5), false));
+    assert!(!b(2).twosided);
+    assert_eq!(
+        b(3).kind,
+        BsdfKind::Blend {
+            weight: 0.25,
+            a: Box::new(red),
+            b: Box::new(BsdfKind::Conductor {
+                specular_reflectance: Vec3::splat(0.9)
+            })
+        }
+    );
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+}
+
+#[test]
+fn plastic_defaults() {
+    let l = ok(&[r#"<shape type="cube"><bsdf type="plastic"/></shape>"#]);
+    let BsdfKind::Plastic {
+        eta,
+        specular_reflectance,
+        diffuse_reflectance,
+        nonlinear,
+    } = l.scene.bsdfs[0].kind
+    else {
+        panic!()
+    };
+    assert!((eta - 1.49 / 1.000277).abs() < 1e-6);
+    assert_eq!(specular_reflectance, Vec3::ONE);
+    assert_eq!(diffuse_reflectance, Vec3::splat(0.5));
+    assert!(!nonlinear);
+}
+
+#[test]
+fn rough_and_unsupported_bsdfs_warn() {
+    let l = ok(&[
+        r#"<shape type="cube"><bsdf type="roughplastic"><float name="alpha" value="0.1"/></bsdf></shape>"#,
+        r#"<shape type="cube"><bsdf type="roughconductor"/></shape>"#,
+        r#"<shape type="cube"><bsdf type="dielectric"/></shape>"#,
+        r#"<shape type="cube"><bsdf type="conductor"><string name="material" value="Au"/></bsdf></shape>"#,
+    ]);
+    assert!(has_warning(&l, 3, "smooth 'plastic'"));
+    assert!(has_warning(&l, 4, "smooth 'conductor'"));
+    assert!(has_warning(&l, 5, "'dielectric'"));
+    assert!(has_warning(&l, 6, "'Au'"));
+    assert!(!l.warnings.iter().any(|w| w.contains("'alpha'")));
+    let kinds: Vec<&BsdfKind> = l.scene.bsdfs.iter().map(|b| &b.kind).collect();
+    assert!(matches!(kinds[0], BsdfKind::Plastic { .. }));
+    assert!(matches!(kinds[1], BsdfKind::Conductor { .. }));
+    assert_eq!(*kinds[2], Bsdf::default().kind);
+    let BsdfKind::Conductor {
+        specular_reflectance,
+    } = kinds[3]
+    else {
+        panic!()
+    };
+    assert!(specular_reflectance.x > specular_reflectance.z);
+}
+
+// ------------------------------------------------------------- shapes
+
+#[test]
+fn shapes_with_transforms_and_flip() {
+    let l = ok(&[
+        r#"<shape type="rectangle"><transform name="to_world"><scale value="2"/><translate z="1"/></transform></shape>"#,
+        r#"<shape type="rectangle"><boolean name="flip_normals" value="true"/></shape>"#,
+        r#"<shape type="sphere"><point name="center" value="1 0 0"/><float name="radius" value="0.5"/>"#,
+        r#"  <transform name="to_world"><translate y="2"/></transform></shape>"#,
+        r#"<shape type="cube" id="box"><transform name="to_world"><scale x="-1"/></transform></shape>"#,
+    ]);
+    let sh = &l.scene.shapes;
+    let r = &sh[0].mesh;
+    assert!((r.area() - 16.0).abs() < 1e-4);
+    assert!(r.positions.iter().all(|p| p.z == 1.0));
+    let [a, b, c] = r.triangle(0);
+    assert!((b - a).cross(c - a).z > 0.0);
+    let [a, b, c] = sh[1].mesh.triangle(0);
+    assert!((b - a).cross(c - a).z < 0.0);
+    assert!(sh[1].mesh.normals.iter().all(|n| *n == Vec3::NEG_Z));
+    let (lo, hi) = sh[2].mesh.bounds().unwrap();
+    assert!(
+        close(lo, Vec3::new(0.5, 1.5, -0.5)) || (lo - Vec3::new(0.5, 1.5, -0.5)).length() < 1e-3
+    );
+    assert!((hi - Vec3::new(1.5, 2.5, 0.5)).length() < 1e-3);
+    // A mirroring to_world keeps the cube's normals outward.
+    let cube = &sh[3].mesh;
+    assert_eq!(sh[3].name, "box");
+    for t in 0..cube.triangle_count() {
+        let [a, b, c] = cube.triangle(t);
+        assert!((b - a).cross(c - a).dot((a + b + c) / 3.0) > 0.0);
+    }
+    assert!(matches!(cube.patches[0], Patch::Polygon(_)));
+}
+
+#[test]
+fn mesh_files_need_a_filename_and_an_existing_file() {
+    let m = err(&[r#"<shape type="obj"/>"#], 3);
+    assert!(m.contains("filename"), "{m}");
+    let m = err(
+        &[
+            r#"<shape type="ply">"#,
+            r#"<string name="filename" value="nothere.ply"/></shape>"#,
+        ],
+        4,
+    );
+    assert!(m.contains("nothere.ply"), "{m}");
+    // A directory.
+    let m = err(
+        &[r#"<shape type="bezier"><string name="filename" value="."/></shape>"#],
+        3,
+    );
+    assert!(m.contains("directory"), "{m}");
+}
+
+// ------------------------------------------------------------- includes
+
+#[test]
+fn include_reads_relative_files() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::create_dir(dir.path().join("parts")).unwrap();
+    fs::write(
+        dir.path().join("parts/mat.xml"),
+        "<scene version=\"3.0.0\">\n<bsdf type=\"diffuse\" id=\"grey\"><rgb name=\"reflectance\" value=\"0.3\"/></bsdf>\n</scene>",
+    )
+    .unwrap();
+    fs::write(
+        dir.path().join("parts/bad.xml"),
+        "<scene version=\"3.0.0\">\n\n<shape type=\"sphere\"><float name=\"radius\" value=\"0\"/></shape>\n</scene>",
+    )
+    .unwrap();
+    let main = dir.path().join("scene.xml");
+    fs::write(
+        &main,
+        scene(&[
+            r#"<include filename="parts/mat.xml"/>"#,
+            r#"<shape type="cube"><ref id="grey"/></shape>"#,
+        ]),
+    )
+    .unwrap();
+    let l = load(&main, &[]).unwrap();
+    assert_eq!(
+        l.scene.bsdfs[0].kind,
+        BsdfKind::Diffuse {
+            reflectance: Vec3::splat(0.3)
+        }
+    );
+    // An error inside an included file names that file and line.
+    fs::write(&main, scene(&[r#"<include filename="parts/bad.xml"/>"#])).unwrap();
+    let m = load(&main, &[]).unwrap_err().to_string();
+    assert!(m.contains("bad.xml:3:"), "{m}");
+    // A file including itself.
+    fs::write(&main, scene(&[r#"<include filename="scene.xml"/>"#])).unwrap();
+    let m = load(&main, &[]).unwrap_err().to_string();
+    assert!(m.contains("scene.xml:3:"), "{m}");
+}
+
+// ------------------------------------------------------------- warnings
+
+#[test]
+fn unknown_plugins_and_parameters_warn_with_line() {
+    let l = ok(&[
+        r#"<shape type="cube">"#,
+        r#"  <float name="radius" value="2"/>"#,
+        "</shape>",
+        r#"<shape type="teapotahedron"/>"#,
+        r#"<frobnicate/>"#,
+        r#"<integrator type="path"/>"#,
+        r#"<integrator type="aov"/>"#,
+        r#"<bsdf type="diffuse" id="x"><rgb name="reflectanse" value="0.5"/></bsdf>"#,
+    ]);
+    assert!(has_warning(&l, 4, "'radius'"));
+    assert!(has_warning(&l, 6, "'teapotahedron'"));
+    assert!(has_warning(&l, 7, "<frobnicate>"));
+    assert!(!l.warnings.iter().any(|w| w.contains("'path'")));
+    assert!(has_warning(&l, 9, "'aov'"));
+    assert!(has_warning(&l, 10, "'reflectanse'"));
+    assert_eq!(l.scene.shapes.len(), 1);
+}
+
+// ------------------------------------------------------------- errors
+
+#[test]
+fn malformed_inputs_are_errors_with_place() {
+    // Not XML at all / malformed XML: roxmltree's position.
+    err_at("this is not xml", 1);
+    err_at(
+        "<scene version=\"3.0.0\">\n<sensor type=\"perspective\">\n</scene>",
+        3,
+    );
+    // Root not <scene>.
+    let m = err_at("<?xml version=\"1.0\"?>\n<shape type=\"cube\"/>", 2);
+    assert!(m.contains("<scene>"), "{m}");
+    // Numbers.
+    err(
+        &[r#"<shape type="sphere"><float name="radius" value="abc"/></shape>"#],
+        3,
+    );
+    err(
+        &[r#"<shape type="sphere"><float name="radius" value="inf"/></shape>"#],
+        3,
+    );
+    err(
+        &[r#"<shape type="sphere"><float name="radius" value="NaN"/></shape>"#],
+        3,
+    );
+    err(
+        &[r#"<emitter type="point"><point name="position" value="1 2"/></emitter>"#],
+        3,
+    );
+    err(
+        &[
+            r#"<shape type="cube"><bsdf type="diffuse"><rgb name="reflectance" value="1 2 3 4"/></bsdf></shape>"#,
+        ],
+        3,
+    );
+    err(
+        &[
+            "<shape type=\"cube\"><transform name=\"to_world\">",
+            "<matrix value=\"1 0 0 0 1 0\"/>",
+            "</transform></shape>",
+        ],
+        4,
+    );
+    err(
+        &[
+            "<shape type=\"cube\"><transform name=\"to_world\">",
+            "<rotate x=\"1\"/>",
+            "</transform></shape>",
+        ],
+        4,
+    );
+    // Film size.
+    for (w, h) in [("0", "10"), ("-5", "10"), ("10", "20000")] {
+        let xml = format!(
+            "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><film type=\"hdrfilm\">\n\
+             <integer name=\"width\" value=\"{w}\"/><integer name=\"height\" value=\"{h}\"/>\n\
+             </film></sensor>\n</scene>"
+        );
+        err_at(&xml, 3);
+    }
+    err_at(
+        "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><film type=\"hdrfilm\">\n<float name=\"width\" value=\"5.5\"/></film></sensor>\n</scene>",
+        3,
+    );
+    // Reflectance out of range, with the channel named.
+    let m = err(
+        &[
+            r#"<shape type="cube"><bsdf type="diffuse">"#,
+            r#"<rgb name="reflectance" value="0.5, 1.2, 0.5"/></bsdf></shape>"#,
+        ],
+        4,
+    );
+    assert!(m.contains("channel g"), "{m}");
+    err(
+        &[r#"<bsdf type="plastic" id="p"><rgb name="diffuse_reflectance" value="-0.1"/></bsdf>"#],
+        3,
+    );
+    // Negative radiance / intensity.
+    err(
+        &[
+            r#"<shape type="cube"><emitter type="area"><rgb name="radiance" value="1 -1 1"/></emitter></shape>"#,
+        ],
+        3,
+    );
+    err(
+        &[r#"<emitter type="spot"><rgb name="intensity" value="-2"/></emitter>"#],
+        3,
+    );
+    // Radius.
+    let m = err(
+        &[r#"<shape type="sphere"><float name="radius" value="0"/></shape>"#],
+        3,
+    );
+    assert!(m.contains("radius"), "{m}");
+    // Unknown IOR name, bad boolean, wrong type.
+    err(
+        &[r#"<bsdf type="plastic" id="p"><string name="int_ior" value="kryptonite"/></bsdf>"#],
+        3,
+    );
+    err(
+        &[r#"<shape type="cube"><boolean name="flip_normals" value="yes"/></shape>"#],
+        3,
+    );
+    err(
+        &[r#"<shape type="sphere"><string name="radius" value="1"/></shape>"#],
+        3,
+    );
+    // Structural problems.
+    err(&[r#"<emitter type="area"/>"#], 3);
+    err(
+        &[r#"<shape type="cube"><bsdf type="diffuse"/><bsdf type="diffuse"/></shape>"#],
+        3,
+    );
+    err(
+        &[
+            r#"<bsdf type="diffuse" id="a"/>"#,
+            r#"<bsdf type="diffuse" id="a"/>"#,
+        ],
+        4,
+    );
+    err(
+        &[
+            r#"<bsdf type="blendbsdf" id="b"><float name="weight" value="0.5"/><bsdf type="diffuse"/></bsdf>"#,
+        ],
+        3,
+    );
+    err(&[r#"<bsdf type="twosided" id="t"/>"#], 3);
+    err(&[r#"<shape/>"#], 3);
+    err(
+        &[r#"<shape type="cube"><transform name="to_world"><scale z="0"/></transform></shape>"#],
+        3,
+    );
+    err(
+        &[
+            r#"<emitter type="spot"><float name="cutoff_angle" value="10"/><float name="beam_width" value="20"/></emitter>"#,
+        ],
+        3,
+    );
+    err(&[r#"<include filename="missing.xml"/>"#], 3);
+    err_at(
+        "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><float name=\"fov\" value=\"180\"/></sensor>\n</scene>",
+        2,
+    );
+    err_at(
+        "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/><float name=\"focal_length\" value=\"40\"/></sensor>\n</scene>",
+        2,
+    );
+}
+
+#[test]
+fn no_sensor_is_an_error() {
+    let m = err_at(
+        "<scene version=\"3.0.0\">\n<shape type=\"cube\"/>\n</scene>",
+        1,
+    );
+    assert!(m.contains("no sensor"), "{m}");
+}
+
+#[test]
+fn unreadable_paths_are_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = load(dir.path(), &[]).unwrap_err().to_string();
+    assert!(m.contains("directory"), "{m}");
+    let m = load(&dir.path().join("none.xml"), &[])
+        .unwrap_err()
+        .to_string();
+    assert!(m.contains("none.xml"), "{m}");
+    let bin = dir.path().join("bin.xml");
+    fs::write(&bin, [0xff, 0xfe, 0x00, 0x41]).unwrap();
+    let m = load(&bin, &[]).unwrap_err().to_string();
+    assert!(m.contains("bin.xml"), "{m}");
+}
+
+// ------------------------------------------------------------- fixture
+
+#[test]
+fn fixture_box_loads_completely() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/xml/box.xml");
+    let l = load(&path, &[("res".into(), "64".into())]).unwrap();
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+    let sc = &l.scene;
+    assert_eq!(sc.sensors.len(), 2);
+    assert_eq!((sc.sensors[0].width, sc.sensors[0].spp), (64, Some(16)));
+    assert_eq!((sc.sensors[1].width, sc.sensors[1].height), (160, 120));
+    assert_eq!(sc.sensors[1].fov_axis, FovAxis::Y);
+    let names: Vec<&str> = sc.shapes.iter().map(|s| s.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["floor", "ceiling", "back", "left", "right", "light", "sphere#6", "cube#7"]
+    );
+    // Walls face into the box.
+    for s in &sc.shapes[..5] {
+        let [a, b, c] = s.mesh.triangle(0);
+        let n = (b - a).cross(c - a);
+        assert!(n.dot(-(a + b + c) / 3.0) > 0.0, "{} faces outward", s.name);
+    }
+    // The light faces down and is the first light.
+    let [a, b, c] = sc.shapes[5].mesh.triangle(0);
+    assert!((b - a).cross(c - a).y < 0.0);
+    assert!((sc.shapes[5].mesh.area() - 0.25).abs() < 1e-5);
+    assert_eq!(sc.shapes[5].emitter, Some(0));
+    assert_eq!(
+        sc.lights[0],
+        Light::Area {
+            shape: 5,
+            radiance: Vec3::new(15.0, 12.0, 9.0)
+        }
+    );
+    assert!(matches!(sc.lights[1], Light::Spot { .. }));
+    assert!(matches!(sc.lights[2], Light::Point { .. }));
+    // Materials from the included file, shared by id.
+    assert_eq!(sc.shapes[0].bsdf, sc.shapes[1].bsdf);
+    assert_eq!(sc.bsdfs[sc.shapes[0].bsdf as usize].name, "white");
+    let red = &sc.bsdfs[sc.shapes[3].bsdf as usize];
+    assert!(red.twosided);
+    assert_eq!(sc.bsdfs.len(), 6);
+    let (lo, hi) = sc.shapes[6].mesh.bounds().unwrap();
+    assert!(((lo + hi) / 2.0 - Vec3::new(-0.4, -0.65, -0.2)).length() < 1e-3);
+}
