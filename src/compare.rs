@@ -70,11 +70,7 @@ fn check_image(img: &Image, which: &str) -> Result<()> {
 /// linear values (written as PNG it reproduces the map's sRGB colours exactly).
 ///
 /// Errors: different sizes, or non-finite values in either image (see module docs).
-pub fn compare(
-    reference: &Image,
-    test: &Image,
-    error_map: bool,
-) -> Result<(Comparison, Option<Image>)> {
+pub fn compare(reference: &Image, test: &Image, error_map: bool) -> Result<(Comparison, Option<Image>)> {
     if (reference.width, reference.height) != (test.width, test.height) {
         return Err(Error::Usage(format!(
             "cannot compare images of different sizes: reference is {}x{}, test is {}x{}",
@@ -97,9 +93,7 @@ pub fn compare(
     let flip = (values.iter().map(|&v| f64::from(v)).sum::<f64>() / values.len() as f64) as f32;
 
     let map = error_map.then(|| {
-        let lut: Vec<f32> = (0..=255u8)
-            .map(|v| srgb_decode(f32::from(v) / 255.0))
-            .collect();
+        let lut: Vec<f32> = (0..=255u8).map(|v| srgb_decode(f32::from(v) / 255.0)).collect();
         let rgb = err.apply_color_lut(&nv_flip::magma_lut()).to_vec();
         let pixels = rgb
             .chunks_exact(3)
@@ -123,11 +117,7 @@ pub fn compare(
 /// Reads both images, compares them, and writes the FLIP error map to `error_map`
 /// when given (`.png` for the magma colours; `.exr` gets the same colours as linear
 /// values). Problems with an image name its file.
-pub fn compare_files(
-    reference: &Path,
-    test: &Path,
-    error_map: Option<&Path>,
-) -> Result<Comparison> {
+pub fn compare_files(reference: &Path, test: &Path, error_map: Option<&Path>) -> Result<Comparison> {
     let ref_img = read_image(reference)?;
     let test_img = read_image(test)?;
     for (img, path) in [(&ref_img, reference), (&test_img, test)] {

@@ -50,9 +50,7 @@ enum Format {
 /// The format named by `path`'s extension (case-insensitive), or a usage error
 /// saying what `verb` ("read" / "write") could not do.
 fn format_of(path: &Path, verb: &str) -> Result<Format> {
-    let ext = path
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
     match ext.as_deref() {
         Some("exr") => Ok(Format::Exr),
         Some("png") => Ok(Format::Png),
@@ -148,9 +146,7 @@ fn encode_png(img: &Image, path: &Path, exposure: f32) -> Result<Vec<u8>> {
 /// Encodes `img` as a linear RGB 32-bit float OpenEXR file in memory (scan lines,
 /// ZIP compression, increasing Y: the most widely supported layout).
 fn encode_exr(img: &Image, path: &Path) -> Result<Vec<u8>> {
-    use exr::prelude::{
-        Blocks, Compression, Encoding, LineOrder, SpecificChannels, Vec2, WritableImage,
-    };
+    use exr::prelude::{Blocks, Compression, Encoding, LineOrder, SpecificChannels, Vec2, WritableImage};
     let width = img.width as usize;
     let encoding = Encoding {
         compression: Compression::ZIP16,
@@ -161,11 +157,7 @@ fn encode_exr(img: &Image, path: &Path) -> Result<Vec<u8>> {
         let p = img.pixels[y * width + x];
         (p.x, p.y, p.z)
     });
-    let image = exr::prelude::Image::from_encoded_channels(
-        (width, img.height as usize),
-        encoding,
-        channels,
-    );
+    let image = exr::prelude::Image::from_encoded_channels((width, img.height as usize), encoding, channels);
     let mut buf = Cursor::new(Vec::new());
     let written = catch_unwind(AssertUnwindSafe(|| image.write().to_buffered(&mut buf)));
     match written {
@@ -317,9 +309,7 @@ fn decode_png(path: &Path, bytes: &[u8]) -> Result<Image> {
             })
             .collect()
     } else {
-        let lut: Vec<f32> = (0..=255u8)
-            .map(|v| srgb_decode(f32::from(v) / 255.0))
-            .collect();
+        let lut: Vec<f32> = (0..=255u8).map(|v| srgb_decode(f32::from(v) / 255.0)).collect();
         let rgb = dynimg.into_rgb8();
         rgb.pixels()
             .map(|p| {
@@ -536,8 +526,7 @@ mod tests {
         // 16-bit grey.
         let p16 = dir.path().join("g16.png");
         let grey =
-            image::ImageBuffer::<image::Luma<u16>, _>::from_raw(3, 1, vec![0u16, 32768, 65535])
-                .unwrap();
+            image::ImageBuffer::<image::Luma<u16>, _>::from_raw(3, 1, vec![0u16, 32768, 65535]).unwrap();
         grey.save(&p16).unwrap();
         let img = read_image(&p16).unwrap();
         assert_eq!((img.width, img.height), (3, 1));
@@ -721,15 +710,9 @@ mod tests {
                 let path = dir.path().join(format!("cut{cut}.{ext}"));
                 fs::write(&path, &full[..cut]).unwrap();
                 let Err(err) = read_image(&path) else {
-                    panic!(
-                        "truncated {ext} at {cut} of {} bytes was accepted",
-                        full.len()
-                    );
+                    panic!("truncated {ext} at {cut} of {} bytes was accepted", full.len());
                 };
-                assert!(
-                    err.to_string().contains(&format!("cut{cut}.{ext}")),
-                    "{err}"
-                );
+                assert!(err.to_string().contains(&format!("cut{cut}.{ext}")), "{err}");
             }
         }
         // A missing file is an I/O error naming it.

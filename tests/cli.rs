@@ -5,7 +5,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn radtrace(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_radtrace")).args(args).output().expect("runs radtrace")
+    Command::new(env!("CARGO_BIN_EXE_radtrace"))
+        .args(args)
+        .output()
+        .expect("runs radtrace")
 }
 
 fn stderr(o: &Output) -> String {
@@ -13,7 +16,10 @@ fn stderr(o: &Output) -> String {
 }
 
 fn repo(p: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(p).to_string_lossy().into_owned()
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join(p)
+        .to_string_lossy()
+        .into_owned()
 }
 
 fn tmp() -> tempfile::TempDir {
@@ -54,18 +60,34 @@ fn point_light_on_a_plane_renders_the_closed_form_radiance() {
     let d = tmp();
     let scene = write_scene(d.path(), PLANE_SCENE);
     let out = d.path().join("plane.exr");
-    let o = radtrace(&["render", &s(&scene), "-o", &s(&out), "--spp", "4", "--filter", "box", "-q"]);
+    let o = radtrace(&[
+        "render",
+        &s(&scene),
+        "-o",
+        &s(&out),
+        "--spp",
+        "4",
+        "--filter",
+        "box",
+        "-q",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let img = radtrace::io::read_image(&out).unwrap();
     assert_eq!((img.width, img.height), (33, 33));
     // Centre pixel: L = rho/pi * I / h^2 (the light is straight above).
     let centre = img.pixels[(16 * 33 + 16) as usize];
     let expect = 0.5 / std::f32::consts::PI * 10.0 / 4.0;
-    assert!((centre.x - expect).abs() < 0.002 * expect, "{centre:?} vs {expect}");
+    assert!(
+        (centre.x - expect).abs() < 0.002 * expect,
+        "{centre:?} vs {expect}"
+    );
     // Off-centre pixels are darker (cosine and distance falloff), symmetrically.
     let left = img.pixels[(16 * 33 + 2) as usize].x;
     let right = img.pixels[(16 * 33 + 30) as usize].x;
-    assert!(left < centre.x && (left - right).abs() < 0.01 * left, "{left} {right}");
+    assert!(
+        left < centre.x && (left - right).abs() < 0.01 * left,
+        "{left} {right}"
+    );
 }
 
 #[test]
@@ -76,7 +98,17 @@ fn the_same_seed_gives_the_same_image_with_one_or_two_threads() {
     for threads in ["1", "2"] {
         let out = d.path().join(format!("t{threads}.exr"));
         let o = radtrace(&[
-            "render", &s(&scene), "-o", &s(&out), "--spp", "3", "--seed", "7", "--threads", threads, "-q",
+            "render",
+            &s(&scene),
+            "-o",
+            &s(&out),
+            "--spp",
+            "3",
+            "--seed",
+            "7",
+            "--threads",
+            threads,
+            "-q",
         ]);
         assert!(o.status.success(), "{}", stderr(&o));
         images.push(radtrace::io::read_image(&out).unwrap());
@@ -89,7 +121,17 @@ fn stats_json_has_the_documented_keys() {
     let d = tmp();
     let scene = write_scene(d.path(), PLANE_SCENE);
     let (out, stats) = (d.path().join("a.png"), d.path().join("stats.json"));
-    let o = radtrace(&["render", &s(&scene), "-o", &s(&out), "--spp", "2", "--stats", &s(&stats), "-q"]);
+    let o = radtrace(&[
+        "render",
+        &s(&scene),
+        "-o",
+        &s(&out),
+        "--spp",
+        "2",
+        "--stats",
+        &s(&stats),
+        "-q",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
     let pixels = 33 * 33 * 2;
@@ -108,7 +150,17 @@ fn defines_override_scene_defaults() {
     let d = tmp();
     let scene = write_scene(d.path(), PLANE_SCENE);
     let out = d.path().join("small.exr");
-    let o = radtrace(&["render", &s(&scene), "-o", &s(&out), "-D", "res=8", "--spp", "1", "-q"]);
+    let o = radtrace(&[
+        "render",
+        &s(&scene),
+        "-o",
+        &s(&out),
+        "-D",
+        "res=8",
+        "--spp",
+        "1",
+        "-q",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let img = radtrace::io::read_image(&out).unwrap();
     assert_eq!((img.width, img.height), (8, 8));
@@ -119,7 +171,10 @@ fn expect_error(args: &[&str], needle: &str) {
     let o = radtrace(args);
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "args {args:?}: {err}");
-    assert!(err.contains(needle), "args {args:?}: '{err}' should mention '{needle}'");
+    assert!(
+        err.contains(needle),
+        "args {args:?}: '{err}' should mention '{needle}'"
+    );
     assert!(!err.contains("panicked"), "{err}");
 }
 
@@ -131,13 +186,23 @@ fn bad_input_gives_one_clear_error_and_exit_code_2() {
     expect_error(&["render", "no/such/scene.xml", "-o", &out], "no/such/scene.xml");
     expect_error(&["render", &s(d.path()), "-o", &out], &s(d.path()));
     expect_error(&["render", &s(&scene), "-o", &out, "--view", "3"], "--view 3");
-    expect_error(&["render", &s(&scene), "-o", &s(&d.path().join("x.jpg"))], "x.jpg");
+    expect_error(
+        &["render", &s(&scene), "-o", &s(&d.path().join("x.jpg"))],
+        "x.jpg",
+    );
     expect_error(&["render", &s(&scene), "-o", &out, "--spp", "0"], "--spp");
     expect_error(&["render", &s(&scene), "-o", &out, "-D", "novalue"], "NAME=VALUE");
     let bad = d.path().join("bad.xml");
-    std::fs::write(&bad, "<scene version=\"3.0.0\">\n  <shape type=\"rectangle\">\n</scene>\n").unwrap();
+    std::fs::write(
+        &bad,
+        "<scene version=\"3.0.0\">\n  <shape type=\"rectangle\">\n</scene>\n",
+    )
+    .unwrap();
     expect_error(&["render", &s(&bad), "-o", &out], "bad.xml:");
-    expect_error(&["tessellate", "missing.bpt", "-o", &s(&d.path().join("t.obj"))], "missing.bpt");
+    expect_error(
+        &["tessellate", "missing.bpt", "-o", &s(&d.path().join("t.obj"))],
+        "missing.bpt",
+    );
     expect_error(&["compare", "a.exr", "b.exr"], "a.exr");
 }
 
@@ -156,7 +221,11 @@ fn compare_of_an_image_with_itself_is_zero() {
     let d = tmp();
     let scene = write_scene(d.path(), PLANE_SCENE);
     let out = d.path().join("a.exr");
-    assert!(radtrace(&["render", &s(&scene), "-o", &s(&out), "--spp", "1", "-q"]).status.success());
+    assert!(
+        radtrace(&["render", &s(&scene), "-o", &s(&out), "--spp", "1", "-q"])
+            .status
+            .success()
+    );
     let o = radtrace(&["compare", &s(&out), &s(&out), "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
@@ -173,18 +242,28 @@ fn the_repository_scenes_load_and_render_small() {
         ("scenes/paper-room/paper-room.xml", vec!["--view", "1"]),
     ] {
         let out = d.path().join("r.exr");
-        let mut args = vec!["render", &scene[..], "-o"];
-        let outs = s(&out);
-        let scene_path = repo(scene);
-        args[1] = &scene_path;
-        args.push(&outs);
-        args.extend(["--width", "24", "--height", "24", "--spp", "1", "--area-samples", "4", "-q"]);
+        let (scene_path, outs) = (repo(scene), s(&out));
+        let mut args = vec!["render", &scene_path, "-o", &outs];
+        args.extend([
+            "--width",
+            "24",
+            "--height",
+            "24",
+            "--spp",
+            "1",
+            "--area-samples",
+            "4",
+            "-q",
+        ]);
         args.extend(extra.iter().copied());
         let o = radtrace(&args);
         assert!(o.status.success(), "{scene}: {}", stderr(&o));
         let img = radtrace::io::read_image(&out).unwrap();
         let mean: f32 = img.pixels.iter().map(|p| p.element_sum()).sum::<f32>() / img.pixels.len() as f32;
         assert!(mean.is_finite() && mean > 0.01, "{scene}: mean {mean}");
-        assert!(img.pixels.iter().all(|p| p.is_finite()), "{scene}: non-finite pixels");
+        assert!(
+            img.pixels.iter().all(|p| p.is_finite()),
+            "{scene}: non-finite pixels"
+        );
     }
 }

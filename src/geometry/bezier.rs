@@ -222,10 +222,7 @@ pub fn read_bpt(path: &Path) -> Result<Vec<BezierPatch>> {
             }
             *slot = Vec3::from_array(xyz);
         }
-        patches.push(BezierPatch {
-            ctrl,
-            flipped: false,
-        });
+        patches.push(BezierPatch { ctrl, flipped: false });
     }
     if let Some(&(line, _)) = it.next() {
         return Err(Error::input(
@@ -285,12 +282,8 @@ pub fn tessellate(patches: &[BezierPatch], coarse: u32, fine: u32) -> TriMesh {
                 });
                 for iv in cv * fine..(cv + 1) * fine {
                     for iu in cu * fine..(cu + 1) * fine {
-                        let (a, b_, c, d) = (
-                            vid(iu, iv),
-                            vid(iu + 1, iv),
-                            vid(iu + 1, iv + 1),
-                            vid(iu, iv + 1),
-                        );
+                        let (a, b_, c, d) =
+                            (vid(iu, iv), vid(iu + 1, iv), vid(iu + 1, iv + 1), vid(iu, iv + 1));
                         let (t0, t1) = if b.flipped {
                             ([a, c, b_], [a, d, c])
                         } else {
@@ -331,10 +324,7 @@ mod tests {
                 ctrl[4 * i + j] = Vec3::new(2.0 * j as f32 / 3.0, 3.0 * i as f32 / 3.0, 0.0);
             }
         }
-        BezierPatch {
-            ctrl,
-            flipped: false,
-        }
+        BezierPatch { ctrl, flipped: false }
     }
 
     fn angle(a: Vec3, b: Vec3) -> f32 {
@@ -356,10 +346,7 @@ mod tests {
         let b = flat();
         for &(u, v) in &[(0.0, 0.0), (0.25, 0.5), (0.7, 0.1), (1.0, 0.6), (0.5, 1.0)] {
             let (p, pu, pv) = b.eval(u, v);
-            assert!(
-                (p - Vec3::new(2.0 * u, 3.0 * v, 0.0)).length() < 1e-6,
-                "{p}"
-            );
+            assert!((p - Vec3::new(2.0 * u, 3.0 * v, 0.0)).length() < 1e-6, "{p}");
             assert!((pu - Vec3::new(2.0, 0.0, 0.0)).length() < 1e-5, "{pu}");
             assert!((pv - Vec3::new(0.0, 3.0, 0.0)).length() < 1e-5, "{pv}");
             assert_eq!(b.normal(u, v), Vec3::Z);
@@ -436,12 +423,7 @@ mod tests {
         let m = tessellate(&pot, 2, 5);
         let per_patch = m.positions.len() / pot.len();
         let mut checked = 0;
-        for (i, (&p, (&n, &uv))) in m
-            .positions
-            .iter()
-            .zip(m.normals.iter().zip(&m.uvs))
-            .enumerate()
-        {
+        for (i, (&p, (&n, &uv))) in m.positions.iter().zip(m.normals.iter().zip(&m.uvs)).enumerate() {
             let b = &pot[i / per_patch];
             let (q, pu, pv) = b.eval(uv.x, uv.y);
             assert!((p - q).length() < 1e-5);
@@ -549,11 +531,8 @@ mod tests {
                 *edges.entry((a, b)).or_default() += 1;
             }
         }
-        let pos_of: std::collections::HashMap<usize, Vec3> = weld
-            .iter()
-            .zip(&m.positions)
-            .map(|(&w, &p)| (w, p))
-            .collect();
+        let pos_of: std::collections::HashMap<usize, Vec3> =
+            weld.iter().zip(&m.positions).map(|(&w, &p)| (w, p)).collect();
         let same: Vec<_> = edges
             .iter()
             .filter(|&(_, &n)| n > 1)
@@ -687,8 +666,7 @@ mod tests {
         let p = dir.path().join("missing.bpt");
         let e = err(&p);
         assert!(
-            e.starts_with(&p.display().to_string())
-                && matches!(read_bpt(&p), Err(Error::Io { .. })),
+            e.starts_with(&p.display().to_string()) && matches!(read_bpt(&p), Err(Error::Io { .. })),
             "{e}"
         );
 

@@ -39,10 +39,7 @@ pub(crate) fn text_lines<'a>(path: &Path, bytes: &'a [u8]) -> Result<Vec<(u32, &
         rest = r;
         let l = l.strip_suffix(b"\r").unwrap_or(l);
         let s = std::str::from_utf8(l).map_err(|e| {
-            let col = String::from_utf8_lossy(&l[..e.valid_up_to()])
-                .chars()
-                .count()
-                + 1;
+            let col = String::from_utf8_lossy(&l[..e.valid_up_to()]).chars().count() + 1;
             Error::input(
                 path,
                 Some(Pos {
@@ -83,11 +80,7 @@ pub(crate) fn parse_finite(path: &Path, line: u32, col: u32, tok: &str) -> Resul
     let pos = Some(Pos { line, col });
     match tok.parse::<f32>() {
         Ok(x) if x.is_finite() => Ok(x),
-        Ok(_) => Err(Error::input(
-            path,
-            pos,
-            format!("'{tok}' is not a finite number"),
-        )),
+        Ok(_) => Err(Error::input(path, pos, format!("'{tok}' is not a finite number"))),
         Err(_) => Err(Error::input(path, pos, format!("'{tok}' is not a number"))),
     }
 }
@@ -193,13 +186,7 @@ struct ObjCorner {
 
 /// Parses one face corner `v`, `v/vt`, `v//vn` or `v/vt/vn`; negative indices are
 /// made absolute against the counts so far.
-fn parse_corner(
-    path: &Path,
-    line: u32,
-    col: u32,
-    tok: &str,
-    counts: [usize; 3],
-) -> Result<ObjCorner> {
+fn parse_corner(path: &Path, line: u32, col: u32, tok: &str, counts: [usize; 3]) -> Result<ObjCorner> {
     let pos = Some(Pos { line, col });
     let parts: Vec<&str> = tok.split('/').collect();
     if parts.len() > 3 || parts[0].is_empty() {
@@ -365,8 +352,7 @@ pub fn read_obj(path: &Path, face_normals: bool) -> Result<TriMesh> {
             let id = match map.get(&key) {
                 Some(&id) => id,
                 None => {
-                    let id =
-                        u32::try_from(raw.positions.len()).map_err(|_| vertex_count_error(path))?;
+                    let id = u32::try_from(raw.positions.len()).map_err(|_| vertex_count_error(path))?;
                     raw.positions.push(pos[vi]);
                     raw.normals.push(ni.map(|n| nor[n]));
                     if has_uv {
@@ -428,11 +414,7 @@ impl PropertyAccess for PlyVertex {
     fn new() -> Self {
         Self::default()
     }
-    fn set_property(
-        &mut self,
-        name: &str,
-        property: Property,
-    ) -> ply_rs_bw::ply::PropertyAccessResult {
+    fn set_property(&mut self, name: &str, property: Property) -> ply_rs_bw::ply::PropertyAccessResult {
         use ply_rs_bw::ply::PropertyAccessResult as R;
         let Some((slot, k)) = vertex_slot(name) else {
             return R::Ignored;
@@ -457,11 +439,7 @@ impl PropertyAccess for PlyFace {
     fn new() -> Self {
         Self::default()
     }
-    fn set_property(
-        &mut self,
-        name: &str,
-        property: Property,
-    ) -> ply_rs_bw::ply::PropertyAccessResult {
+    fn set_property(&mut self, name: &str, property: Property) -> ply_rs_bw::ply::PropertyAccessResult {
         use ply_rs_bw::ply::PropertyAccessResult as R;
         if name != "vertex_indices" && name != "vertex_index" {
             return R::Ignored;
@@ -643,11 +621,7 @@ pub fn read_ply(path: &Path, face_normals: bool) -> Result<TriMesh> {
                     u32::try_from(i)
                         .ok()
                         .filter(|&i| (i as usize) < nv)
-                        .ok_or_else(|| {
-                            bad(format!(
-                                "vertex index {i} out of range (only {nv} vertices)"
-                            ))
-                        })
+                        .ok_or_else(|| bad(format!("vertex index {i} out of range (only {nv} vertices)")))
                 })
                 .collect::<Result<Vec<u32>>>()?;
         raw.faces.push(idx);
@@ -815,19 +789,11 @@ mod tests {
         assert_eq!(m.triangle_count(), 2);
         assert_eq!(
             m.triangle(0),
-            [
-                Vec3::ZERO,
-                Vec3::new(1.0, 0.0, 0.0),
-                Vec3::new(1.0, 1.0, 0.0)
-            ]
+            [Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0)]
         );
         assert_eq!(
             m.triangle(1),
-            [
-                Vec3::ZERO,
-                Vec3::new(1.0, 1.0, 0.0),
-                Vec3::new(0.0, 1.0, 0.0)
-            ]
+            [Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 0.0)]
         );
         // Vertices shared between the two faces are one vertex.
         assert_eq!(m.positions.len(), 4);
@@ -924,22 +890,13 @@ mod tests {
         );
 
         let cases: &[(&str, &str)] = &[
-            (
-                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n",
-                ":4:3: vertex index 0",
-            ),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", ":4:3: vertex index 0"),
             (
                 "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 1 2\n",
                 ":4:3: relative vertex index -4",
             ),
-            (
-                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n",
-                ":4:1: face has 2 vertices",
-            ),
-            (
-                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf\n",
-                ":4:1: face has 0 vertices",
-            ),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n", ":4:1: face has 2 vertices"),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf\n", ":4:1: face has 0 vertices"),
             (
                 "v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
                 ":1:7: 'nan' is not a finite number",
@@ -961,10 +918,7 @@ mod tests {
                 "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3/1/1/1\n",
                 ":4:7: bad face vertex",
             ),
-            (
-                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 /3\n",
-                ":4:7: bad face vertex",
-            ),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 /3\n", ":4:7: bad face vertex"),
             (
                 "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 a\n",
                 ":4:7: bad face vertex 'a'",
@@ -1104,11 +1058,7 @@ mod tests {
         let fixture = read_ply(&data("cube_ascii.ply"), false).unwrap();
         check_cube(&fixture);
         for fmt in ["ascii", "binary_little_endian", "binary_big_endian"] {
-            for (double, normals, uv) in [
-                (false, false, false),
-                (true, true, false),
-                (false, true, true),
-            ] {
+            for (double, normals, uv) in [(false, false, false), (true, true, false), (false, true, true)] {
                 let p = write(&dir, "cube.ply", cube_ply(fmt, double, normals, uv));
                 let m = read_ply(&p, false).unwrap_or_else(|e| panic!("{fmt}: {e}"));
                 check_cube(&m);
@@ -1157,14 +1107,9 @@ mod tests {
         let full = cube_ply("ascii", false, false, false);
         let text = String::from_utf8(full).unwrap();
         let lines: Vec<&str> = text.lines().collect();
-        let e = err(
-            "t.ply",
-            (lines[..lines.len() - 3].join("\n") + "\n").into_bytes(),
-        );
+        let e = err("t.ply", (lines[..lines.len() - 3].join("\n") + "\n").into_bytes());
         assert!(
-            e.contains(
-                "t.ply:28: Unexpected end of file while reading element 'face' (expected 6, got 4)"
-            ),
+            e.contains("t.ply:28: Unexpected end of file while reading element 'face' (expected 6, got 4)"),
             "{e}"
         );
 
@@ -1177,10 +1122,7 @@ mod tests {
             .into_bytes()
         };
         let e = err("range.ply", ascii("0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n"));
-        assert!(
-            e.contains(":13: face 0: vertex index 3 out of range"),
-            "{e}"
-        );
+        assert!(e.contains(":13: face 0: vertex index 3 out of range"), "{e}");
         let e = err("neg.ply", ascii("0 0 0\n1 0 0\n0 1 0\n3 0 1 -1\n"));
         assert!(e.contains("vertex index -1 out of range"), "{e}");
         let e = err("two.ply", ascii("0 0 0\n1 0 0\n0 1 0\n2 0 1\n"));
@@ -1214,10 +1156,7 @@ mod tests {
         let n = b.len();
         b[n - 13] = 255;
         let e = err("list.ply", b);
-        assert!(
-            e.contains("binary data ends early, in element 'face'"),
-            "{e}"
-        );
+        assert!(e.contains("binary data ends early, in element 'face'"), "{e}");
 
         // Header problems.
         let head = |s: &str| s.as_bytes().to_vec();
@@ -1228,10 +1167,7 @@ mod tests {
                 head("plx\nformat ascii 1.0\nend_header\n"),
                 "h.ply:1: Expected magic number 'ply'. String: 'plx'",
             ),
-            (
-                head("ply\nformat ascii 1.0\nend_header\n"),
-                "no 'vertex' element",
-            ),
+            (head("ply\nformat ascii 1.0\nend_header\n"), "no 'vertex' element"),
             (
                 head("ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nend_header\n"),
                 "no 'y' property",

@@ -93,8 +93,7 @@ pub fn sphere(center: Vec3, radius: f32) -> TriMesh {
             };
             m.positions.push(center + radius * dir);
             m.normals.push(dir);
-            m.uvs
-                .push(Vec2::new(j as f32 / ns as f32, i as f32 / nr as f32));
+            m.uvs.push(Vec2::new(j as f32 / ns as f32, i as f32 / nr as f32));
         }
     }
     let at = |i: u32, j: u32| i * (ns + 1) + j;
@@ -257,10 +256,7 @@ mod tests {
         for t in 0..m.triangle_count() {
             assert!(m.triangle_area(t) > 0.0, "degenerate triangle {t}");
             let g = geometric_normal(&m, t);
-            assert!(
-                g.dot(centroid(&m, t) - c) > 0.0,
-                "triangle {t} faces inward"
-            );
+            assert!(g.dot(centroid(&m, t) - c) > 0.0, "triangle {t} faces inward");
         }
         for (p, n) in m.positions.iter().zip(&m.normals) {
             assert!(((*p - c).length() - r).abs() < 1e-4);

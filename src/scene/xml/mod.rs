@@ -307,9 +307,7 @@ impl<'a, 'i> Obj<'a, 'i> {
         let c = self.color(name, default)?;
         for (k, ch) in ["r", "g", "b"].into_iter().enumerate() {
             if !(0.0..=1.0).contains(&c[k]) {
-                return Err(
-                    self.err_param(name, format!("channel {ch} = {} is outside [0, 1]", c[k]))
-                );
+                return Err(self.err_param(name, format!("channel {ch} = {} is outside [0, 1]", c[k])));
             }
         }
         Ok(c)
@@ -512,11 +510,7 @@ impl Loader {
             "bsdf" => {
                 self.bsdf(s, c)?;
                 if c.attribute("id").is_none() {
-                    self.warn(
-                        s,
-                        c,
-                        "a top-level <bsdf> without an id cannot be used; ignored",
-                    );
+                    self.warn(s, c, "a top-level <bsdf> without an id cannot be used; ignored");
                 }
                 Ok(())
             }
@@ -526,8 +520,8 @@ impl Loader {
             "sensor" => self.sensor(s, c),
             "integrator" => self.integrator(s, c),
             "alias" => self.alias(s, c),
-            t @ ("float" | "integer" | "boolean" | "string" | "rgb" | "spectrum" | "point"
-            | "vector" | "transform" | "ref") => {
+            t @ ("float" | "integer" | "boolean" | "string" | "rgb" | "spectrum" | "point" | "vector"
+            | "transform" | "ref") => {
                 self.warn(s, c, format!("<{t}> directly inside <scene> ignored"));
                 Ok(())
             }
@@ -612,12 +606,7 @@ impl Loader {
     // ------------------------------------------------------------ properties
 
     /// Reads the properties and nested objects of a plugin element.
-    fn collect<'a, 'i>(
-        &mut self,
-        s: Src<'a, 'i>,
-        node: Node<'a, 'i>,
-        what: String,
-    ) -> Result<Obj<'a, 'i>> {
+    fn collect<'a, 'i>(&mut self, s: Src<'a, 'i>, node: Node<'a, 'i>, what: String) -> Result<Obj<'a, 'i>> {
         let mut obj = Obj {
             src: s,
             node,
@@ -628,8 +617,8 @@ impl Loader {
         for c in node.children().filter(Node::is_element) {
             let t = tag(c);
             match t {
-                "float" | "integer" | "boolean" | "string" | "rgb" | "spectrum" | "point"
-                | "vector" | "transform" => {
+                "float" | "integer" | "boolean" | "string" | "rgb" | "spectrum" | "point" | "vector"
+                | "transform" => {
                     let name = self.attr_req(s, c, "name")?;
                     let val = self.value(s, c, t)?;
                     push_prop(&mut obj, name, val, c)?;
@@ -654,23 +643,17 @@ impl Loader {
                             let Some(name) = self.attr(s, c, "name")? else {
                                 return Err(s.err(
                                     c,
-                                    format!(
-                                        "<ref> to texture '{id}' needs a 'name' (the parameter)"
-                                    ),
+                                    format!("<ref> to texture '{id}' needs a 'name' (the parameter)"),
                                 ));
                             };
                             push_prop(&mut obj, name, Val::Texture(v), c)?;
                         }
-                        target => obj.children.push(Child::Ref {
-                            node: c,
-                            id,
-                            target,
-                        }),
+                        target => obj.children.push(Child::Ref { node: c, id, target }),
                     }
                 }
                 "default" => self.default(s, c)?,
-                "bsdf" | "emitter" | "shape" | "sensor" | "film" | "sampler" | "rfilter"
-                | "medium" | "phase" | "integrator" | "volume" => obj.children.push(Child::Elem(c)),
+                "bsdf" | "emitter" | "shape" | "sensor" | "film" | "sampler" | "rfilter" | "medium"
+                | "phase" | "integrator" | "volume" => obj.children.push(Child::Elem(c)),
                 "include" => self.warn(
                     s,
                     c,
@@ -735,14 +718,12 @@ impl Loader {
                     format!("<{}>: give either 'value' or 'x'/'y'/'z', not both", tag(c)),
                 ));
             }
-            return parse::one_or_three(&v)
-                .map_err(|m| s.err_attr(c, "value", format!("<{}>: {m}", tag(c))));
+            return parse::one_or_three(&v).map_err(|m| s.err_attr(c, "value", format!("<{}>: {m}", tag(c))));
         }
         let mut out = Vec3::splat(default);
         for (k, a) in ["x", "y", "z"].into_iter().enumerate() {
             if let Some(v) = self.attr(s, c, a)? {
-                out[k] = parse::number(&v)
-                    .map_err(|m| s.err_attr(c, a, format!("<{}>: {m}", tag(c))))?;
+                out[k] = parse::number(&v).map_err(|m| s.err_attr(c, a, format!("<{}>: {m}", tag(c))))?;
             }
         }
         Ok(out)
@@ -775,17 +756,16 @@ impl Loader {
                 "matrix" => {
                     self.check_attrs(s, op, &["value"]);
                     let v = self.attr_req(s, op, "value")?;
-                    parse::matrix(&v)
-                        .map_err(|m| s.err_attr(op, "value", format!("<matrix>: {m}")))?
+                    parse::matrix(&v).map_err(|m| s.err_attr(op, "value", format!("<matrix>: {m}")))?
                 }
                 "lookat" => {
                     self.check_attrs(s, op, &["origin", "target", "up"]);
                     let get = |name: &str| -> Result<Option<Vec3>> {
                         match self.attr(s, op, name)? {
                             None => Ok(None),
-                            Some(v) => parse::triple(&v).map(Some).map_err(|m| {
-                                s.err_attr(op, name, format!("<lookat> '{name}': {m}"))
-                            }),
+                            Some(v) => parse::triple(&v)
+                                .map(Some)
+                                .map_err(|m| s.err_attr(op, name, format!("<lookat> '{name}': {m}"))),
                         }
                     };
                     let origin = get("origin")?;
@@ -902,19 +882,14 @@ impl Loader {
     /// A path parameter (`filename`) that must name an existing file.
     fn file_param(&self, obj: &Obj, name: &str) -> Result<(PathBuf, String)> {
         let Some(fname) = obj.string(name)? else {
-            return Err(obj
-                .src
-                .err(obj.node, format!("{}: missing '{name}'", obj.what)));
+            return Err(obj.src.err(obj.node, format!("{}: missing '{name}'", obj.what)));
         };
         let path = self.resolve(obj.src, &fname);
         if path.is_dir() {
             return Err(obj.err_param(name, format!("= '{fname}' is a directory, not a file")));
         }
         if !path.exists() {
-            return Err(obj.err_param(
-                name,
-                format!("= '{fname}': no such file ({})", path.display()),
-            ));
+            return Err(obj.err_param(name, format!("= '{fname}': no such file ({})", path.display())));
         }
         Ok((path, fname))
     }
@@ -939,13 +914,7 @@ impl Loader {
             "conductor" | "roughconductor" => {
                 if ty == "roughconductor" {
                     self.rough(s, c, &ty, "conductor");
-                    for p in [
-                        "alpha",
-                        "alpha_u",
-                        "alpha_v",
-                        "distribution",
-                        "sample_visible",
-                    ] {
+                    for p in ["alpha", "alpha_u", "alpha_v", "distribution", "sample_visible"] {
                         obj.get(p);
                     }
                 }
@@ -1042,9 +1011,7 @@ impl Loader {
                 self.warn(
                     s,
                     c,
-                    format!(
-                        "bsdf '{ty}' is not supported: rendered as diffuse with its base_color"
-                    ),
+                    format!("bsdf '{ty}' is not supported: rendered as diffuse with its base_color"),
                 );
                 (BsdfKind::Diffuse { reflectance }, false)
             }
@@ -1313,10 +1280,7 @@ impl Loader {
                 Child::Elem(n) if tag(*n) == "emitter" => {
                     if let Some(r) = self.area_emitter(s, *n)? {
                         if emitter.is_some() {
-                            return Err(s.err(
-                                *n,
-                                format!("shape '{name}' has more than one area emitter"),
-                            ));
+                            return Err(s.err(*n, format!("shape '{name}' has more than one area emitter")));
                         }
                         emitter = Some((r, *n));
                     }
@@ -1338,10 +1302,7 @@ impl Loader {
             Some((radiance, n)) => {
                 let area = mesh.area();
                 if !(area > 0.0 && area.is_finite()) {
-                    return Err(s.err(
-                        n,
-                        format!("area emitter on shape '{name}', which has zero area"),
-                    ));
+                    return Err(s.err(n, format!("area emitter on shape '{name}', which has zero area")));
                 }
                 if radiance == Vec3::ZERO {
                     self.warn(s, n, format!("area emitter on '{name}' has zero radiance"));
@@ -1409,26 +1370,22 @@ impl Loader {
                 if intensity == Vec3::ZERO {
                     self.warn(s, c, "point light with zero intensity");
                 }
-                self.scene.lights.push(Light::Point {
-                    position,
-                    intensity,
-                });
+                self.scene.lights.push(Light::Point { position, intensity });
             }
             "spot" => {
                 let obj = self.collect(s, c, "emitter 'spot'".into())?;
                 let m = obj.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
                 let position = m.transform_point3(Vec3::ZERO);
                 let axis = m.transform_vector3(Vec3::Z);
-                let direction = axis.try_normalize().ok_or_else(|| {
-                    obj.err_param("to_world", "maps the spot's axis (+z) to nothing")
-                })?;
+                let direction = axis
+                    .try_normalize()
+                    .ok_or_else(|| obj.err_param("to_world", "maps the spot's axis (+z) to nothing"))?;
                 let intensity = obj.emission("intensity")?;
                 let cutoff = obj.float("cutoff_angle")?.unwrap_or(20.0);
                 if !(cutoff > 0.0 && cutoff <= 180.0) {
-                    return Err(obj.err_param(
-                        "cutoff_angle",
-                        format!("= {cutoff} degrees is outside (0, 180]"),
-                    ));
+                    return Err(
+                        obj.err_param("cutoff_angle", format!("= {cutoff} degrees is outside (0, 180]"))
+                    );
                 }
                 let beam = obj.float("beam_width")?.unwrap_or(cutoff * 0.75);
                 if !(0.0..=cutoff).contains(&beam) {
@@ -1501,9 +1458,7 @@ impl Loader {
         }
 
         let (fov, fov_axis) = match (obj.get("fov").is_some(), obj.get("focal_length").is_some()) {
-            (true, true) => {
-                return Err(s.err(c, "sensor: give either 'fov' or 'focal_length', not both"))
-            }
+            (true, true) => return Err(s.err(c, "sensor: give either 'fov' or 'focal_length', not both")),
             (true, false) => {
                 let fov = obj.float("fov")?.unwrap_or(0.0);
                 let axis = obj.string("fov_axis")?.unwrap_or_else(|| "x".into());
@@ -1549,10 +1504,7 @@ impl Loader {
                 }
                 obj.get("fov_axis");
                 let diag = (36.0f32 * 36.0 + 24.0 * 24.0).sqrt();
-                (
-                    (diag / (2.0 * f)).atan().to_degrees() * 2.0,
-                    FovAxis::Diagonal,
-                )
+                ((diag / (2.0 * f)).atan().to_degrees() * 2.0, FovAxis::Diagonal)
             }
         };
         if !(fov > 0.0 && fov < 180.0) {
@@ -1623,11 +1575,7 @@ impl Loader {
         let ty = self.attr_req(s, c, "type")?;
         self.register(s, c, Target::Other("film"))?;
         if ty != "hdrfilm" {
-            self.warn(
-                s,
-                c,
-                format!("film '{ty}': only its width and height are used"),
-            );
+            self.warn(s, c, format!("film '{ty}': only its width and height are used"));
         }
         let obj = self.collect(s, c, format!("film '{ty}'"))?;
         let size = |name: &str, default: i64| -> Result<u32> {
@@ -1658,17 +1606,11 @@ impl Loader {
 }
 
 /// Adds a property, refusing a second one of the same name.
-fn push_prop<'a, 'i>(
-    obj: &mut Obj<'a, 'i>,
-    name: String,
-    val: Val,
-    node: Node<'a, 'i>,
-) -> Result<()> {
+fn push_prop<'a, 'i>(obj: &mut Obj<'a, 'i>, name: String, val: Val, node: Node<'a, 'i>) -> Result<()> {
     if obj.props.iter().any(|p| p.name == name) {
-        return Err(obj.src.err(
-            node,
-            format!("{}: parameter '{name}' given twice", obj.what),
-        ));
+        return Err(obj
+            .src
+            .err(node, format!("{}: parameter '{name}' given twice", obj.what)));
     }
     obj.props.push(Prop {
         name,
@@ -1692,12 +1634,7 @@ fn ior(obj: &Obj, name: &str, default: f32) -> Result<f32> {
                 format!("= '{t}' is not a known material (e.g. 'bk7', 'acrylic glass', 'air')"),
             )
         })?,
-        Some(v) => {
-            return Err(obj.err_param(
-                name,
-                format!("must be a number or a name, not {}", v.kind()),
-            ))
-        }
+        Some(v) => return Err(obj.err_param(name, format!("must be a number or a name, not {}", v.kind()))),
     };
     if v <= 0.0 {
         return Err(obj.err_param(name, format!("= {v} must be positive")));

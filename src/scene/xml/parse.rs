@@ -53,8 +53,7 @@ pub fn number(s: &str) -> Result<f32, String> {
 /// An integer.
 pub fn integer(s: &str) -> Result<i64, String> {
     let t = s.trim();
-    t.parse::<i64>()
-        .map_err(|_| format!("'{t}' is not an integer"))
+    t.parse::<i64>().map_err(|_| format!("'{t}' is not an integer"))
 }
 
 /// A boolean, `true` or `false` (any case, as Mitsuba).
@@ -82,11 +81,7 @@ pub fn numbers(s: &str) -> Result<Vec<f32>, String> {
 pub fn triple(s: &str) -> Result<Vec3, String> {
     let v = numbers(s)?;
     if v.len() != 3 {
-        return Err(format!(
-            "expected 3 numbers, found {} in '{}'",
-            v.len(),
-            s.trim()
-        ));
+        return Err(format!("expected 3 numbers, found {} in '{}'", v.len(), s.trim()));
     }
     Ok(Vec3::new(v[0], v[1], v[2]))
 }
@@ -97,10 +92,7 @@ pub fn one_or_three(s: &str) -> Result<Vec3, String> {
     match v.len() {
         1 => Ok(Vec3::splat(v[0])),
         3 => Ok(Vec3::new(v[0], v[1], v[2])),
-        n => Err(format!(
-            "expected 1 or 3 numbers, found {n} in '{}'",
-            s.trim()
-        )),
+        n => Err(format!("expected 1 or 3 numbers, found {n} in '{}'", s.trim())),
     }
 }
 
@@ -215,9 +207,7 @@ mod tests {
     use super::*;
 
     fn params(kv: &[(&str, &str)]) -> HashMap<String, String> {
-        kv.iter()
-            .map(|(k, v)| (k.to_string(), v.to_string()))
-            .collect()
+        kv.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect()
     }
 
     #[test]

@@ -91,9 +91,7 @@ fn sensor_with(transform: &str) -> Loaded {
 
 #[test]
 fn transform_ops_compose_in_document_order() {
-    let l = sensor_with(
-        r#"<scale value="2"/><rotate z="1" angle="90"/><translate x="1" y="2" z="3"/>"#,
-    );
+    let l = sensor_with(r#"<scale value="2"/><rotate z="1" angle="90"/><translate x="1" y="2" z="3"/>"#);
     let m = l.scene.sensors[0].to_world;
     let expected = Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0))
         * Mat4::from_rotation_z(PI / 2.0)
@@ -107,10 +105,7 @@ fn transform_ops_compose_in_document_order() {
     );
     let m = l.scene.sensors[0].to_world;
     // (0,0,0) -> (1,2,3) -> (-2,1,3) -> (-4,2,6).
-    assert!(close(
-        m.transform_point3(Vec3::ZERO),
-        Vec3::new(-4.0, 2.0, 6.0)
-    ));
+    assert!(close(m.transform_point3(Vec3::ZERO), Vec3::new(-4.0, 2.0, 6.0)));
 }
 
 #[test]
@@ -144,10 +139,7 @@ fn matrix_is_row_major() {
     let l = sensor_with(r#"<matrix value="1 0 0 5  0 1 0 6  0 0 1 7  0 0 0 1"/>"#);
     let m = l.scene.sensors[0].to_world;
     assert_eq!(m.w_axis, Vec4::new(5.0, 6.0, 7.0, 1.0));
-    assert!(close(
-        m.transform_point3(Vec3::ONE),
-        Vec3::new(6.0, 7.0, 8.0)
-    ));
+    assert!(close(m.transform_point3(Vec3::ONE), Vec3::new(6.0, 7.0, 8.0)));
 }
 
 #[test]
@@ -329,10 +321,7 @@ fn spot_angles_in_radians_and_default_beam() {
     else {
         panic!()
     };
-    assert_eq!(
-        (position, direction, intensity),
-        (Vec3::ZERO, Vec3::Z, Vec3::ONE)
-    );
+    assert_eq!((position, direction, intensity), (Vec3::ZERO, Vec3::Z, Vec3::ONE));
     assert!((cutoff_angle - 20f32.to_radians()).abs() < 1e-6);
     assert!((beam_width - 15f32.to_radians()).abs() < 1e-6);
 }
@@ -460,11 +449,7 @@ fn refs_reuse_one_bsdf_entry() {
 #[test]
 fn unknown_ref_is_an_error() {
     let m = err(
-        &[
-            r#"<shape type="cube">"#,
-            r#"  <ref id="nope"/>"#,
-            "</shape>",
-        ],
+        &[r#"<shape type="cube">"#, r#"  <ref id="nope"/>"#, "</shape>"],
         4,
     );
     assert!(m.contains("'nope'"), "{m}");
@@ -578,10 +563,7 @@ fn rough_and_unsupported_bsdfs_warn() {
     assert!(matches!(kinds[0], BsdfKind::Plastic { .. }));
     assert!(matches!(kinds[1], BsdfKind::Conductor { .. }));
     assert_eq!(*kinds[2], Bsdf::default().kind);
-    let BsdfKind::Conductor {
-        specular_reflectance,
-    } = kinds[3]
-    else {
+    let BsdfKind::Conductor { specular_reflectance } = kinds[3] else {
         panic!()
     };
     assert!(specular_reflectance.x > specular_reflectance.z);
@@ -608,9 +590,7 @@ fn shapes_with_transforms_and_flip() {
     assert!((b - a).cross(c - a).z < 0.0);
     assert!(sh[1].mesh.normals.iter().all(|n| *n == Vec3::NEG_Z));
     let (lo, hi) = sh[2].mesh.bounds().unwrap();
-    assert!(
-        close(lo, Vec3::new(0.5, 1.5, -0.5)) || (lo - Vec3::new(0.5, 1.5, -0.5)).length() < 1e-3
-    );
+    assert!(close(lo, Vec3::new(0.5, 1.5, -0.5)) || (lo - Vec3::new(0.5, 1.5, -0.5)).length() < 1e-3);
     assert!((hi - Vec3::new(1.5, 2.5, 0.5)).length() < 1e-3);
     // A mirroring to_world keeps the cube's normals outward.
     let cube = &sh[3].mesh;
@@ -829,9 +809,7 @@ fn malformed_inputs_are_errors_with_place() {
         4,
     );
     err(
-        &[
-            r#"<bsdf type="blendbsdf" id="b"><float name="weight" value="0.5"/><bsdf type="diffuse"/></bsdf>"#,
-        ],
+        &[r#"<bsdf type="blendbsdf" id="b"><float name="weight" value="0.5"/><bsdf type="diffuse"/></bsdf>"#],
         3,
     );
     err(&[r#"<bsdf type="twosided" id="t"/>"#], 3);
@@ -859,10 +837,7 @@ fn malformed_inputs_are_errors_with_place() {
 
 #[test]
 fn no_sensor_is_an_error() {
-    let m = err_at(
-        "<scene version=\"3.0.0\">\n<shape type=\"cube\"/>\n</scene>",
-        1,
-    );
+    let m = err_at("<scene version=\"3.0.0\">\n<shape type=\"cube\"/>\n</scene>", 1);
     assert!(m.contains("no sensor"), "{m}");
 }
 
@@ -871,9 +846,7 @@ fn unreadable_paths_are_errors() {
     let dir = tempfile::tempdir().unwrap();
     let m = load(dir.path(), &[]).unwrap_err().to_string();
     assert!(m.contains("directory"), "{m}");
-    let m = load(&dir.path().join("none.xml"), &[])
-        .unwrap_err()
-        .to_string();
+    let m = load(&dir.path().join("none.xml"), &[]).unwrap_err().to_string();
     assert!(m.contains("none.xml"), "{m}");
     let bin = dir.path().join("bin.xml");
     fs::write(&bin, [0xff, 0xfe, 0x00, 0x41]).unwrap();
