@@ -16,6 +16,8 @@ pub mod compare;
 pub mod error;
 pub mod geometry;
 pub mod io;
+pub mod mesh;
+pub mod radiosity;
 pub mod render;
 pub mod scene;
 pub mod stats;

@@ -93,6 +93,32 @@ impl BsdfKind {
         }
     }
 
+    /// Diffuse albedo: the fraction of uniformly arriving light reflected diffusely
+    /// (what the radiosity pass uses as the reflectance rho). Exact for `diffuse`;
+    /// for the coated models, the cosine-weighted average over both directions.
+    pub fn diffuse_albedo(&self) -> Rgb {
+        match self {
+            BsdfKind::Diffuse { reflectance } => *reflectance,
+            BsdfKind::Conductor { .. } => Vec3::ZERO,
+            BsdfKind::Blend { weight, a, b } => {
+                a.diffuse_albedo() * (1.0 - weight) + b.diffuse_albedo() * *weight
+            }
+            BsdfKind::Plastic { .. } => {
+                // rho = pi * integral f cos cos over both hemispheres / pi^2 (cosine-weighted
+                // average of the directional albedo): midpoint rule in cos.
+                let n = 32;
+                let mut sum = Vec3::ZERO;
+                for a in 0..n {
+                    for b in 0..n {
+                        let (ci, co) = ((a as f32 + 0.5) / n as f32, (b as f32 + 0.5) / n as f32);
+                        sum += self.diffuse_brdf(ci, co) * (ci * co);
+                    }
+                }
+                sum * (4.0 * std::f32::consts::PI / (n * n) as f32)
+            }
+        }
+    }
+
     /// Whether the material has a mirror part.
     pub fn has_mirror(&self) -> bool {
         self.mirror(1.0).max_element() > 0.0 || self.mirror(0.0).max_element() > 0.0

@@ -8,7 +8,7 @@ pub mod bsdf;
 pub mod camera;
 pub mod film;
 pub mod lights;
-mod shading;
+pub mod shading;
 
 use std::time::Instant;
 

@@ -1,0 +1,626 @@
+//! The radiosity mesh (paper Sect. 6): every patch of the scene is split into
+//! elements no larger than a mesh size, with vertices shared inside the patch.
+//! Radiosity values live at the vertices and are Gouraud-interpolated at hit points.
+//!
+//! A patch is meshed as one or more regular *grids* over a parameter domain:
+//! a triangle as a triangular grid (barycentric), a quadrilateral as a bilinear grid,
+//! a piece of a Bezier patch as a grid in (u, v), and a polygon of five or more
+//! corners as a fan of triangular grids. A hit point is located in its grid by its
+//! parameters, which gives the element and the interpolation weights at once.
+
+use glam::{Vec2, Vec3};
+
+use crate::accel::Hit;
+use crate::geometry::{BezierPatch, Patch};
+use crate::scene::{Rgb, Scene};
+
+/// The parameter domain of one grid.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Domain {
+    /// A triangle, parameterised by barycentrics of corners 1 and 2.
+    Tri([Vec3; 3]),
+    /// A (planar) quadrilateral, parameterised bilinearly: corner 0 at (0,0),
+    /// 1 at (1,0), 2 at (1,1), 3 at (0,1).
+    Quad([Vec3; 4]),
+    /// The piece `u x v` of a Bezier surface.
+    Bezier {
+        /// The surface.
+        surface: BezierPatch,
+        /// Parameter range in u.
+        u: [f32; 2],
+        /// Parameter range in v.
+        v: [f32; 2],
+    },
+}
+
+/// A regular grid of elements over a domain.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Grid {
+    /// The domain.
+    pub domain: Domain,
+    /// Subdivisions: for `Tri` both are k (k^2 triangles); otherwise n along the first
+    /// parameter and m along the second (n x m quads).
+    pub n: u32,
+    /// See `n`.
+    pub m: u32,
+    /// Index of the grid's first vertex in [`RadiosityMesh::vertices`].
+    pub first_vertex: u32,
+}
+
+/// A radiosity patch: the unit that keeps a source list.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshPatch {
+    /// Shape index in the scene.
+    pub shape: u32,
+    /// Patch index within the shape's mesh.
+    pub local: u32,
+    /// Its grids (one, or a fan for polygons of five or more corners).
+    pub grids: Vec<Grid>,
+    /// First vertex (the patch's vertices are contiguous).
+    pub first_vertex: u32,
+    /// Number of vertices.
+    pub vertex_count: u32,
+    /// Number of elements.
+    pub element_count: u32,
+    /// Surface area.
+    pub area: f32,
+    /// Diffuse reflectance used by the radiosity pass.
+    pub reflectance: Rgb,
+    /// Receives and reflects on both sides.
+    pub twosided: bool,
+}
+
+/// A mesh vertex: where radiosity is computed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MeshVertex {
+    /// Position.
+    pub p: Vec3,
+    /// Unit normal (front side).
+    pub n: Vec3,
+    /// The share of the patch's area this vertex stands for.
+    pub area: f32,
+    /// The patch it belongs to.
+    pub patch: u32,
+}
+
+/// The whole radiosity mesh of a scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RadiosityMesh {
+    /// The element size it was made with.
+    pub mesh_size: f32,
+    /// All patches, shape by shape.
+    pub patches: Vec<MeshPatch>,
+    /// All vertices, patch by patch.
+    pub vertices: Vec<MeshVertex>,
+    /// For each shape, the index of its first patch in `patches`.
+    pub shape_first_patch: Vec<u32>,
+}
+
+/// Vertex weights for interpolating at a point: up to four vertices.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Interp {
+    /// Vertex indices.
+    pub vertices: [u32; 4],
+    /// Their weights (summing to 1; unused entries 0).
+    pub weights: [f32; 4],
+}
+
+impl Interp {
+    /// Interpolates a per-vertex quantity.
+    pub fn apply(&self, values: &[Rgb]) -> Rgb {
+        let mut s = Vec3::ZERO;
+        for k in 0..4 {
+            if self.weights[k] != 0.0 {
+                s += values[self.vertices[k] as usize] * self.weights[k];
+            }
+        }
+        s
+    }
+}
+
+/// The default element size: 1/40 of the scene's bounding-box diagonal.
+pub fn default_mesh_size(scene: &Scene) -> f32 {
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    for s in &scene.shapes {
+        if let Some((a, b)) = s.mesh.bounds() {
+            lo = lo.min(a);
+            hi = hi.max(b);
+        }
+    }
+    let d = (hi - lo).length();
+    if d.is_finite() && d > 0.0 {
+        d / 40.0
+    } else {
+        1.0
+    }
+}
+
+/// Subdivisions for a length: at least 1, at most 256.
+fn divisions(len: f32, size: f32) -> u32 {
+    if !(len > 0.0) || !(size > 0.0) {
+        return 1;
+    }
+    ((len / size).ceil() as u32).clamp(1, 256)
+}
+
+impl Grid {
+    fn vertex_count(&self) -> u32 {
+        match self.domain {
+            Domain::Tri(_) => (self.n + 1) * (self.n + 2) / 2,
+            _ => (self.n + 1) * (self.m + 1),
+        }
+    }
+
+    fn element_count(&self) -> u32 {
+        match self.domain {
+            Domain::Tri(_) => self.n * self.n,
+            _ => self.n * self.m,
+        }
+    }
+
+    /// Position and normal at parameters (s, t).
+    fn eval(&self, s: f32, t: f32) -> (Vec3, Vec3) {
+        match &self.domain {
+            Domain::Tri([a, b, c]) => {
+                let n = (*b - *a).cross(*c - *a).normalize_or(Vec3::Z);
+                (*a + (*b - *a) * s + (*c - *a) * t, n)
+            }
+            Domain::Quad([a, b, c, d]) => {
+                let p = (*a * (1.0 - s) + *b * s) * (1.0 - t) + (*d * (1.0 - s) + *c * s) * t;
+                (p, quad_normal([*a, *b, *c, *d]))
+            }
+            Domain::Bezier { surface, u, v } => {
+                let uu = u[0] + (u[1] - u[0]) * s;
+                let vv = v[0] + (v[1] - v[0]) * t;
+                let (p, _, _) = surface.eval(uu, vv);
+                let n = surface.normal(uu, vv);
+                (p, if surface.flipped { -n } else { n })
+            }
+        }
+    }
+
+    /// Area element |dP/ds x dP/dt| at (s, t) (for triangles: twice the area).
+    fn jacobian(&self, s: f32, t: f32) -> f32 {
+        match &self.domain {
+            Domain::Tri([a, b, c]) => (*b - *a).cross(*c - *a).length(),
+            Domain::Quad([a, b, c, d]) => {
+                let ds = (*b - *a) * (1.0 - t) + (*c - *d) * t;
+                let dt = (*d - *a) * (1.0 - s) + (*c - *b) * s;
+                ds.cross(dt).length()
+            }
+            Domain::Bezier { surface, u, v } => {
+                let (_, du, dv) = surface.eval(u[0] + (u[1] - u[0]) * s, v[0] + (v[1] - v[0]) * t);
+                du.cross(dv).length() * (u[1] - u[0]) * (v[1] - v[0])
+            }
+        }
+    }
+
+    /// The element containing parameters (s, t) and the weights of its corners.
+    fn interp(&self, s: f32, t: f32) -> Interp {
+        let base = self.first_vertex;
+        match self.domain {
+            Domain::Tri(_) => {
+                let k = self.n;
+                let (fs, ft) = (s.clamp(0.0, 1.0) * k as f32, t.clamp(0.0, 1.0) * k as f32);
+                let mut i = (fs.floor() as u32).min(k - 1);
+                let mut j = (ft.floor() as u32).min(k - 1);
+                // Rounding can put the cell past the diagonal: step back in.
+                while i + j > k - 1 {
+                    if i >= j {
+                        i -= 1;
+                    } else {
+                        j -= 1;
+                    }
+                }
+                let (a, b) = (fs - i as f32, ft - j as f32);
+                let idx = |i: u32, j: u32| base + tri_vertex(k, i, j);
+                if a + b <= 1.0 || i + j + 1 > k - 1 {
+                    // Lower triangle (i,j), (i+1,j), (i,j+1).
+                    let (a, b) = if a + b > 1.0 {
+                        let sum = a + b;
+                        (a / sum, b / sum)
+                    } else {
+                        (a, b)
+                    };
+                    Interp {
+                        vertices: [idx(i, j), idx(i + 1, j), idx(i, j + 1), idx(i, j)],
+                        weights: [1.0 - a - b, a, b, 0.0],
+                    }
+                } else {
+                    // Upper triangle (i+1,j+1), (i,j+1), (i+1,j).
+                    let (a2, b2) = (1.0 - a, 1.0 - b);
+                    Interp {
+                        vertices: [idx(i + 1, j + 1), idx(i, j + 1), idx(i + 1, j), idx(i, j)],
+                        weights: [1.0 - a2 - b2, a2, b2, 0.0],
+                    }
+                }
+            }
+            _ => {
+                let (n, m) = (self.n, self.m);
+                let (fs, ft) = (s.clamp(0.0, 1.0) * n as f32, t.clamp(0.0, 1.0) * m as f32);
+                let i = (fs.floor() as u32).min(n - 1);
+                let j = (ft.floor() as u32).min(m - 1);
+                let (a, b) = (fs - i as f32, ft - j as f32);
+                let idx = |i: u32, j: u32| base + j * (n + 1) + i;
+                Interp {
+                    vertices: [idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1)],
+                    weights: [(1.0 - a) * (1.0 - b), a * (1.0 - b), a * b, (1.0 - a) * b],
+                }
+            }
+        }
+    }
+}
+
+/// Local index of vertex (i, j) in a triangular grid of k subdivisions: rows of
+/// constant j, each holding k + 1 - j vertices.
+fn tri_vertex(k: u32, i: u32, j: u32) -> u32 {
+    j * (k + 1) - j * j.saturating_sub(1) / 2 + i
+}
+
+/// Unit normal of a (nearly planar) quadrilateral by Newell's method.
+fn quad_normal(q: [Vec3; 4]) -> Vec3 {
+    let mut n = Vec3::ZERO;
+    for k in 0..4 {
+        let (a, b) = (q[k], q[(k + 1) % 4]);
+        n += Vec3::new(
+            (a.y - b.y) * (a.z + b.z),
+            (a.z - b.z) * (a.x + b.x),
+            (a.x - b.x) * (a.y + b.y),
+        );
+    }
+    n.normalize_or(Vec3::Z)
+}
+
+/// Parameters (s, t) of point `p` in quadrilateral `q` (inverse bilinear map), for a
+/// planar quad; the point is projected into the quad's plane first.
+fn inverse_bilinear(q: [Vec3; 4], p: Vec3) -> Vec2 {
+    let n = quad_normal(q);
+    // 2D frame in the quad's plane.
+    let ex = (q[1] - q[0]).normalize_or(n.any_orthonormal_vector());
+    let ey = n.cross(ex);
+    let to2 = |v: Vec3| Vec2::new((v - q[0]).dot(ex), (v - q[0]).dot(ey));
+    let (a, b, c, d, x) = (to2(q[0]), to2(q[1]), to2(q[2]), to2(q[3]), to2(p));
+    // x = a + (b-a) s + (d-a) t + (a - b + c - d) s t
+    let e = b - a;
+    let f = d - a;
+    let g = a - b + c - d;
+    let h = x - a;
+    let cross = |u: Vec2, v: Vec2| u.x * v.y - u.y * v.x;
+    let k2 = cross(g, f);
+    let k1 = cross(e, f) + cross(h, g);
+    let k0 = cross(h, e);
+    let t = if k2.abs() < 1e-9 * (k1.abs() + 1e-30) {
+        -k0 / k1
+    } else {
+        let disc = (k1 * k1 - 4.0 * k0 * k2).max(0.0).sqrt();
+        let t1 = (-k1 - disc) / (2.0 * k2);
+        let t2 = (-k1 + disc) / (2.0 * k2);
+        if (-0.01..=1.01).contains(&t1) {
+            t1
+        } else {
+            t2
+        }
+    };
+    let denom_x = e.x + g.x * t;
+    let denom_y = e.y + g.y * t;
+    let s = if denom_x.abs() > denom_y.abs() {
+        (h.x - f.x * t) / denom_x
+    } else {
+        (h.y - f.y * t) / denom_y
+    };
+    Vec2::new(s, t)
+}
+
+/// Barycentrics (of corners 1 and 2) of `p` projected into triangle `tri`.
+fn barycentric(tri: [Vec3; 3], p: Vec3) -> Vec2 {
+    let (e1, e2, v) = (tri[1] - tri[0], tri[2] - tri[0], p - tri[0]);
+    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (v1, v2) = (v.dot(e1), v.dot(e2));
+    let det = d11 * d22 - d12 * d12;
+    if !(det.abs() > 0.0) {
+        return Vec2::splat(1.0 / 3.0);
+    }
+    Vec2::new((d22 * v1 - d12 * v2) / det, (d11 * v2 - d12 * v1) / det)
+}
+
+impl RadiosityMesh {
+    /// Meshes every patch of `scene` with elements no larger than `mesh_size`.
+    pub fn build(scene: &Scene, mesh_size: f32) -> Self {
+        let mut mesh = RadiosityMesh {
+            mesh_size,
+            patches: Vec::new(),
+            vertices: Vec::new(),
+            shape_first_patch: Vec::with_capacity(scene.shapes.len()),
+        };
+        for (si, shape) in scene.shapes.iter().enumerate() {
+            mesh.shape_first_patch.push(mesh.patches.len() as u32);
+            let bsdf = &scene.bsdfs[shape.bsdf as usize];
+            let reflectance = bsdf.kind.diffuse_albedo();
+            for (pi, patch) in shape.mesh.patches.iter().enumerate() {
+                let domains: Vec<Domain> = match patch {
+                    Patch::Polygon(idx) => {
+                        let pts: Vec<Vec3> = idx.iter().map(|&i| shape.mesh.positions[i as usize]).collect();
+                        match pts.len() {
+                            0..=2 => vec![],
+                            3 => vec![Domain::Tri([pts[0], pts[1], pts[2]])],
+                            4 => vec![Domain::Quad([pts[0], pts[1], pts[2], pts[3]])],
+                            _ => (1..pts.len() - 1)
+                                .map(|k| Domain::Tri([pts[0], pts[k], pts[k + 1]]))
+                                .collect(),
+                        }
+                    }
+                    Patch::Bezier { surface, u, v } => {
+                        vec![Domain::Bezier {
+                            surface: shape.mesh.bezier[*surface as usize],
+                            u: *u,
+                            v: *v,
+                        }]
+                    }
+                };
+                let first_vertex = mesh.vertices.len() as u32;
+                let patch_index = mesh.patches.len() as u32;
+                let mut grids = Vec::with_capacity(domains.len());
+                let mut area = 0.0;
+                let mut elements = 0;
+                for domain in domains {
+                    let (n, m) = grid_size(&domain, mesh_size);
+                    let grid = Grid {
+                        domain,
+                        n,
+                        m,
+                        first_vertex: mesh.vertices.len() as u32,
+                    };
+                    let (verts, a) = grid_vertices(&grid, patch_index);
+                    area += a;
+                    elements += grid.element_count();
+                    mesh.vertices.extend(verts);
+                    grids.push(grid);
+                }
+                mesh.patches.push(MeshPatch {
+                    shape: si as u32,
+                    local: pi as u32,
+                    grids,
+                    first_vertex,
+                    vertex_count: mesh.vertices.len() as u32 - first_vertex,
+                    element_count: elements,
+                    area,
+                    reflectance,
+                    twosided: bsdf.twosided,
+                });
+            }
+        }
+        mesh
+    }
+
+    /// Number of elements.
+    pub fn element_count(&self) -> usize {
+        self.patches.iter().map(|p| p.element_count as usize).sum()
+    }
+
+    /// The patch that triangle `tri` of shape `shape` belongs to.
+    pub fn patch_of(&self, scene: &Scene, shape: u32, tri: u32) -> u32 {
+        self.shape_first_patch[shape as usize] + scene.shapes[shape as usize].mesh.tri_patch[tri as usize]
+    }
+
+    /// Interpolation weights at a ray hit (its patch, element and corner weights).
+    pub fn locate(&self, scene: &Scene, hit: &Hit, p: Vec3) -> Interp {
+        let patch = &self.patches[self.patch_of(scene, hit.shape, hit.tri) as usize];
+        let grid = match patch.grids.len() {
+            1 => &patch.grids[0],
+            _ => {
+                // A fan: the triangle whose barycentrics are most inside.
+                patch
+                    .grids
+                    .iter()
+                    .max_by(|a, b| {
+                        let score = |g: &Grid| match g.domain {
+                            Domain::Tri(t) => {
+                                let b = barycentric(t, p);
+                                b.x.min(b.y).min(1.0 - b.x - b.y)
+                            }
+                            _ => f32::NEG_INFINITY,
+                        };
+                        score(a).total_cmp(&score(b))
+                    })
+                    .expect("patch has grids")
+            }
+        };
+        let st = match &grid.domain {
+            Domain::Tri(t) => barycentric(*t, p),
+            Domain::Quad(q) => inverse_bilinear(*q, p),
+            Domain::Bezier { u, v, .. } => {
+                let mesh = &scene.shapes[hit.shape as usize].mesh;
+                let [a, b, c] = mesh.indices[hit.tri as usize].map(|i| mesh.uvs[i as usize]);
+                let uv = a * (1.0 - hit.bary.x - hit.bary.y) + b * hit.bary.x + c * hit.bary.y;
+                Vec2::new((uv.x - u[0]) / (u[1] - u[0]), (uv.y - v[0]) / (v[1] - v[0]))
+            }
+        };
+        grid.interp(st.x, st.y)
+    }
+
+    /// Stratified points on patch `patch` for shooting from it: `count` points with
+    /// their position, normal, area share and the vertex weights there. `u` gives the
+    /// jitter of each point in `[0,1)^2`.
+    pub fn sample_points(&self, patch: u32, count: u32, u: impl Fn(u32) -> Vec2) -> Vec<PatchPoint> {
+        let p = &self.patches[patch as usize];
+        let mut out = Vec::with_capacity(count as usize);
+        // Spread the points over the grids in proportion to their area.
+        let areas: Vec<f32> = p.grids.iter().map(grid_area).collect();
+        let total: f32 = areas.iter().sum();
+        if !(total > 0.0) {
+            return out;
+        }
+        let side = (count as f32).sqrt().ceil().max(1.0) as u32;
+        for (g, grid) in p.grids.iter().enumerate() {
+            let share = areas[g] / total;
+            let k = ((count as f32 * share).round() as u32).max(1);
+            for idx in 0..k {
+                let r = u(idx + g as u32 * 7919);
+                // Stratify on a side x side lattice of the k points.
+                let (cx, cy) = ((idx % side) as f32, ((idx / side) % side) as f32);
+                let (mut s, mut t) = ((cx + r.x) / side as f32, (cy + r.y) / side as f32);
+                if k < side * side {
+                    s = (idx as f32 + r.x) / k as f32;
+                    t = r.y;
+                }
+                let (s, t, jac_scale) = match grid.domain {
+                    Domain::Tri(_) => {
+                        // Uniform on the triangle: (1 - sqrt(s)) mapping.
+                        let q = s.sqrt();
+                        (q * (1.0 - t), q * t, 0.5)
+                    }
+                    _ => (s, t, 1.0),
+                };
+                let (pos, n) = grid.eval(s, t);
+                let area = match grid.domain {
+                    Domain::Tri(_) => grid.jacobian(s, t) * jac_scale / k as f32,
+                    _ => grid.jacobian(s, t) / k as f32,
+                };
+                out.push(PatchPoint {
+                    p: pos,
+                    n,
+                    area,
+                    interp: grid.interp(s, t),
+                });
+            }
+        }
+        out
+    }
+}
+
+/// A point on a patch used for shooting.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PatchPoint {
+    /// Position.
+    pub p: Vec3,
+    /// Unit normal (front).
+    pub n: Vec3,
+    /// Area this point stands for.
+    pub area: f32,
+    /// Vertex weights at the point.
+    pub interp: Interp,
+}
+
+fn grid_area(g: &Grid) -> f32 {
+    match g.domain {
+        Domain::Tri(_) => 0.5 * g.jacobian(0.0, 0.0),
+        Domain::Quad(_) => {
+            0.25 * (0..4)
+                .map(|k| g.jacobian(0.25 + 0.5 * (k % 2) as f32, 0.25 + 0.5 * (k / 2) as f32))
+                .sum::<f32>()
+        }
+        Domain::Bezier { .. } => {
+            let n = 6;
+            let mut a = 0.0;
+            for i in 0..n {
+                for j in 0..n {
+                    a += g.jacobian((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                }
+            }
+            a / (n * n) as f32
+        }
+    }
+}
+
+fn grid_size(domain: &Domain, size: f32) -> (u32, u32) {
+    match domain {
+        Domain::Tri([a, b, c]) => {
+            let k = divisions(
+                (*b - *a).length().max((*c - *a).length()).max((*c - *b).length()),
+                size,
+            );
+            (k, k)
+        }
+        Domain::Quad([a, b, c, d]) => (
+            divisions((*b - *a).length().max((*c - *d).length()), size),
+            divisions((*d - *a).length().max((*c - *b).length()), size),
+        ),
+        Domain::Bezier { surface, u, v } => {
+            // Polyline lengths along the two parameter directions.
+            let at = |s: f32, t: f32| surface.eval(u[0] + (u[1] - u[0]) * s, v[0] + (v[1] - v[0]) * t).0;
+            let len = |f: &dyn Fn(f32) -> Vec3| {
+                (0..8)
+                    .map(|k| (f((k + 1) as f32 / 8.0) - f(k as f32 / 8.0)).length())
+                    .sum::<f32>()
+            };
+            let mut lu: f32 = 0.0;
+            let mut lv: f32 = 0.0;
+            for w in [0.0, 0.5, 1.0] {
+                lu = lu.max(len(&|s| at(s, w)));
+                lv = lv.max(len(&|t| at(w, t)));
+            }
+            (divisions(lu, size), divisions(lv, size))
+        }
+    }
+}
+
+/// The vertices of a grid with their area shares, and the grid's area.
+fn grid_vertices(grid: &Grid, patch: u32) -> (Vec<MeshVertex>, f32) {
+    let mut verts = Vec::with_capacity(grid.vertex_count() as usize);
+    let mut total = 0.0;
+    match grid.domain {
+        Domain::Tri(_) => {
+            let k = grid.n;
+            for j in 0..=k {
+                for i in 0..=k - j {
+                    let (p, n) = grid.eval(i as f32 / k as f32, j as f32 / k as f32);
+                    verts.push(MeshVertex {
+                        p,
+                        n,
+                        area: 0.0,
+                        patch,
+                    });
+                }
+            }
+            let elem = 0.5 * grid.jacobian(0.0, 0.0) / (k * k) as f32;
+            for j in 0..k {
+                for i in 0..k - j {
+                    for v in [
+                        tri_vertex(k, i, j),
+                        tri_vertex(k, i + 1, j),
+                        tri_vertex(k, i, j + 1),
+                    ] {
+                        verts[v as usize].area += elem / 3.0;
+                    }
+                    total += elem;
+                    if i + j < k - 1 {
+                        for v in [
+                            tri_vertex(k, i + 1, j + 1),
+                            tri_vertex(k, i, j + 1),
+                            tri_vertex(k, i + 1, j),
+                        ] {
+                            verts[v as usize].area += elem / 3.0;
+                        }
+                        total += elem;
+                    }
+                }
+            }
+        }
+        _ => {
+            let (n, m) = (grid.n, grid.m);
+            for j in 0..=m {
+                for i in 0..=n {
+                    let (p, nn) = grid.eval(i as f32 / n as f32, j as f32 / m as f32);
+                    verts.push(MeshVertex {
+                        p,
+                        n: nn,
+                        area: 0.0,
+                        patch,
+                    });
+                }
+            }
+            for j in 0..m {
+                for i in 0..n {
+                    let (s, t) = ((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / m as f32);
+                    let a = grid.jacobian(s, t) / (n * m) as f32;
+                    total += a;
+                    for (di, dj) in [(0, 0), (1, 0), (1, 1), (0, 1)] {
+                        verts[((j + dj) * (n + 1) + i + di) as usize].area += a / 4.0;
+                    }
+                }
+            }
+        }
+    }
+    (verts, total)
+}

@@ -1,0 +1,520 @@
+//! Pass 1 (paper Sect. 6): progressive-refinement radiosity ("shooting", Cohen et
+//! al. 1988) that keeps the strongest sources apart.
+//!
+//! Light sources shoot first, strongest first; then, repeatedly, the patch with the
+//! most unshot power. Every shot goes from points on the source to every mesh vertex
+//! with a ray-cast form factor and a shadow ray (Wallace et al. 1989), so occlusion is
+//! exact at the vertices. Each patch keeps a list of at most `n` sources whose
+//! contributions it stores separately, per vertex, both occluded and unoccluded; all
+//! other light goes into the vertex's *general radiosity*. A source that drops out of a
+//! list is folded into the general radiosity of that patch, so every source reaches a
+//! vertex by exactly one route. Further shooting always uses the total.
+
+use std::time::Instant;
+
+use glam::{Vec2, Vec3};
+use indicatif::ProgressBar;
+use rayon::prelude::*;
+
+use crate::accel::{Accel, Ray};
+use crate::mesh::{MeshVertex, RadiosityMesh};
+use crate::render::lights::SampledLight;
+use crate::render::shading::ray_epsilon;
+use crate::scene::{Light, Rgb, Scene};
+
+/// What shot light: a light source of the scene or a radiant patch of the mesh.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
+pub enum SourceId {
+    /// Index into [`Scene::lights`].
+    Light(u32),
+    /// Index into [`RadiosityMesh::patches`].
+    Patch(u32),
+}
+
+/// Settings of the radiosity pass.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SolveSettings {
+    /// Largest element edge (world units).
+    pub mesh_size: f32,
+    /// n: sources kept apart per patch.
+    pub sources_per_patch: u32,
+    /// Sample points on an area light or a shooting patch per shot.
+    pub shoot_samples: u32,
+    /// Stop when the unshot power falls below this fraction of the emitted power.
+    pub tolerance: f32,
+    /// Stop after this many patch shots at most.
+    pub max_shots: u32,
+    /// Seed for the sample points.
+    pub seed: u64,
+}
+
+/// One source kept apart on a patch: its contribution at each of the patch's vertices.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ListEntry {
+    /// The source.
+    pub source: SourceId,
+    /// Reflected radiosity from this source at each vertex, with visibility.
+    pub occluded: Vec<Rgb>,
+    /// The same without visibility (as if nothing were in the way).
+    pub unoccluded: Vec<Rgb>,
+    /// Power (unoccluded, reflected) this source brings to the patch: its rank.
+    pub power: f32,
+}
+
+/// Figures of a solve.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+pub struct SolveStats {
+    /// Shots from light sources.
+    pub light_shots: u64,
+    /// Shots from patches.
+    pub patch_shots: u64,
+    /// Rays cast (shadow rays between shooting points and vertices).
+    pub rays: u64,
+    /// Mesh elements.
+    pub elements: u64,
+    /// Mesh vertices.
+    pub vertices: u64,
+    /// Patches.
+    pub patches: u64,
+    /// Power emitted by all light sources (mean of RGB, W).
+    pub emitted_power: f64,
+    /// Unshot power left, as a fraction of the emitted power.
+    pub residual: f64,
+    /// Wall seconds.
+    pub time_s: f64,
+}
+
+/// The view-independent result of pass 1.
+#[derive(Debug, Clone)]
+pub struct Solution {
+    /// The mesh the values live on.
+    pub mesh: RadiosityMesh,
+    /// The settings it was computed with.
+    pub settings: SolveSettings,
+    /// General radiosity per vertex: everything not kept apart.
+    pub general: Vec<Rgb>,
+    /// Per patch, the sources kept apart.
+    pub lists: Vec<Vec<ListEntry>>,
+    /// Figures.
+    pub stats: SolveStats,
+}
+
+impl Solution {
+    /// Total reflected radiosity per vertex: general plus every listed source.
+    pub fn total(&self) -> Vec<Rgb> {
+        let mut t = self.general.clone();
+        for (p, list) in self.lists.iter().enumerate() {
+            let first = self.mesh.patches[p].first_vertex as usize;
+            for e in list {
+                for (k, c) in e.occluded.iter().enumerate() {
+                    t[first + k] += *c;
+                }
+            }
+        }
+        t
+    }
+}
+
+/// A point light sources shoot from: position, normal (zero for point lights),
+/// area, and emitted radiosity (for point lights: intensity, with `area` 0).
+#[derive(Debug, Clone, Copy)]
+struct ShootPoint {
+    p: Vec3,
+    n: Vec3,
+    area: f32,
+    radiosity: Rgb,
+    twosided: bool,
+}
+
+fn mean(c: Rgb) -> f32 {
+    (c.x + c.y + c.z) / 3.0
+}
+
+/// Radiant power of a light (mean over RGB).
+pub fn light_power(scene: &Scene, light: &Light) -> f64 {
+    match *light {
+        Light::Point { intensity, .. } => 4.0 * std::f64::consts::PI * mean(intensity) as f64,
+        Light::Spot {
+            intensity,
+            cutoff_angle,
+            beam_width,
+            ..
+        } => {
+            // I * integral of the falloff over the sphere.
+            let beam = beam_width.min(cutoff_angle) as f64;
+            let cut = cutoff_angle as f64;
+            let n = 2000;
+            let mut sum = 0.0;
+            for k in 0..n {
+                let th = (k as f64 + 0.5) / n as f64 * cut;
+                let f = if th <= beam {
+                    1.0
+                } else {
+                    (cut - th) / (cut - beam)
+                };
+                sum += f * th.sin() * cut / n as f64;
+            }
+            2.0 * std::f64::consts::PI * sum * mean(intensity) as f64
+        }
+        Light::Area { shape, radiance } => {
+            std::f64::consts::PI * mean(radiance) as f64 * scene.shapes[shape as usize].mesh.area() as f64
+        }
+    }
+}
+
+/// Runs pass 1. `progress` (if given, length 1000) shows the shot fraction of power.
+pub fn solve(
+    scene: &Scene,
+    accel: &dyn Accel,
+    settings: &SolveSettings,
+    progress: Option<&ProgressBar>,
+) -> Solution {
+    let start = Instant::now();
+    let mesh = RadiosityMesh::build(scene, settings.mesh_size);
+    let nv = mesh.vertices.len();
+    let mut s = Solver {
+        scene,
+        accel,
+        settings,
+        general: vec![Vec3::ZERO; nv],
+        unshot: vec![Vec3::ZERO; nv],
+        lists: vec![Vec::new(); mesh.patches.len()],
+        stats: SolveStats {
+            elements: mesh.element_count() as u64,
+            vertices: nv as u64,
+            patches: mesh.patches.len() as u64,
+            ..Default::default()
+        },
+        mesh,
+    };
+    let emitted: f64 = scene.lights.iter().map(|l| light_power(scene, l)).sum();
+    s.stats.emitted_power = emitted;
+
+    // Lights first, strongest first.
+    let mut order: Vec<usize> = (0..scene.lights.len()).collect();
+    order.sort_by(|&a, &b| {
+        light_power(scene, &scene.lights[b]).total_cmp(&light_power(scene, &scene.lights[a]))
+    });
+    for l in order {
+        let points = s.light_points(l as u32);
+        s.shoot(SourceId::Light(l as u32), &points);
+        s.stats.light_shots += 1;
+    }
+
+    // Then radiant patches, the most unshot power first.
+    let mut patch_power: Vec<f64> = (0..s.mesh.patches.len()).map(|p| s.unshot_power(p)).collect();
+    loop {
+        let total: f64 = patch_power.iter().sum();
+        s.stats.residual = if emitted > 0.0 { total / emitted } else { 0.0 };
+        if let Some(pb) = progress {
+            pb.set_position(((1.0 - s.stats.residual).clamp(0.0, 1.0) * 1000.0) as u64);
+        }
+        if s.stats.residual <= settings.tolerance as f64 || s.stats.patch_shots >= settings.max_shots as u64 {
+            break;
+        }
+        let (best, _) = patch_power
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .expect("residual > 0 means patches exist");
+        let points = s.patch_points(best as u32);
+        let first = s.mesh.patches[best].first_vertex as usize;
+        let count = s.mesh.patches[best].vertex_count as usize;
+        for u in &mut s.unshot[first..first + count] {
+            *u = Vec3::ZERO;
+        }
+        let touched = s.shoot(SourceId::Patch(best as u32), &points);
+        s.stats.patch_shots += 1;
+        patch_power[best] = 0.0;
+        for p in touched {
+            patch_power[p] = s.unshot_power(p);
+        }
+    }
+    s.stats.time_s = start.elapsed().as_secs_f64();
+    Solution {
+        mesh: s.mesh,
+        settings: *settings,
+        general: s.general,
+        lists: s.lists,
+        stats: s.stats,
+    }
+}
+
+struct Solver<'a> {
+    scene: &'a Scene,
+    accel: &'a dyn Accel,
+    settings: &'a SolveSettings,
+    mesh: RadiosityMesh,
+    general: Vec<Rgb>,
+    unshot: Vec<Rgb>,
+    lists: Vec<Vec<ListEntry>>,
+    stats: SolveStats,
+}
+
+impl Solver<'_> {
+    fn unshot_power(&self, p: usize) -> f64 {
+        let patch = &self.mesh.patches[p];
+        let first = patch.first_vertex as usize;
+        (first..first + patch.vertex_count as usize)
+            .map(|v| mean(self.unshot[v]) as f64 * self.mesh.vertices[v].area as f64)
+            .sum()
+    }
+
+    fn jitter(&self, shot: u64) -> impl Fn(u32) -> Vec2 {
+        let seed = crate::render::splitmix64(self.settings.seed ^ shot.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let seed = (seed ^ (seed >> 32)) as u32;
+        move |k| Vec2::new(sobol_burley::sample(k, 0, seed), sobol_burley::sample(k, 1, seed))
+    }
+
+    /// Shooting points of light `l`.
+    fn light_points(&self, l: u32) -> Vec<ShootPoint> {
+        match self.scene.lights[l as usize] {
+            Light::Point { position, intensity } => {
+                vec![ShootPoint {
+                    p: position,
+                    n: Vec3::ZERO,
+                    area: 0.0,
+                    radiosity: intensity,
+                    twosided: false,
+                }]
+            }
+            Light::Spot {
+                position, intensity, ..
+            } => {
+                vec![ShootPoint {
+                    p: position,
+                    n: Vec3::ZERO,
+                    area: 0.0,
+                    radiosity: intensity,
+                    twosided: false,
+                }]
+            }
+            Light::Area { shape, radiance } => {
+                let first = self.mesh.shape_first_patch[shape as usize] as usize;
+                let last = self
+                    .mesh
+                    .shape_first_patch
+                    .get(shape as usize + 1)
+                    .map(|&x| x as usize)
+                    .unwrap_or(self.mesh.patches.len());
+                let area: f32 = self.mesh.patches[first..last].iter().map(|p| p.area).sum();
+                let jitter = self.jitter(u64::from(l) << 32);
+                let mut pts = Vec::new();
+                for p in first..last {
+                    let share = self.mesh.patches[p].area / area;
+                    let k = ((self.settings.shoot_samples as f32 * share).round() as u32).max(1);
+                    let base = pts.len() as u32;
+                    for sp in self.mesh.sample_points(p as u32, k, |i| jitter(base + i)) {
+                        pts.push(ShootPoint {
+                            p: sp.p,
+                            n: sp.n,
+                            area: sp.area,
+                            radiosity: radiance * std::f32::consts::PI,
+                            twosided: false,
+                        });
+                    }
+                }
+                pts
+            }
+        }
+    }
+
+    /// Shooting points of patch `p`, carrying its unshot radiosity.
+    fn patch_points(&self, p: u32) -> Vec<ShootPoint> {
+        let jitter = self.jitter(self.stats.patch_shots + 1);
+        let twosided = self.mesh.patches[p as usize].twosided;
+        self.mesh
+            .sample_points(p, self.settings.shoot_samples, jitter)
+            .into_iter()
+            .map(|sp| ShootPoint {
+                p: sp.p,
+                n: sp.n,
+                area: sp.area,
+                radiosity: sp.interp.apply(&self.unshot),
+                twosided,
+            })
+            .filter(|sp| sp.radiosity.max_element() > 0.0)
+            .collect()
+    }
+
+    /// Light from `points` at vertex `v`: (occluded, unoccluded) irradiance and rays.
+    fn gather(
+        &self,
+        points: &[ShootPoint],
+        v: &MeshVertex,
+        twosided: bool,
+        light: Option<&SampledLight>,
+    ) -> (Rgb, Rgb, u64) {
+        let mut occ = Vec3::ZERO;
+        let mut unocc = Vec3::ZERO;
+        let mut rays = 0;
+        for sp in points {
+            let d = sp.p - v.p;
+            let r2 = d.length_squared();
+            if !(r2 > 0.0) {
+                continue;
+            }
+            let r = r2.sqrt();
+            let dir = d / r;
+            let mut cos_v = v.n.dot(dir);
+            if twosided {
+                cos_v = cos_v.abs();
+            }
+            if cos_v <= 0.0 {
+                continue;
+            }
+            let e = if let Some(l) = light {
+                // Point or spot light: I * falloff / r^2 * cos.
+                match l.sample(v.p, Vec2::ZERO) {
+                    Some(s) => s.value * cos_v,
+                    None => continue,
+                }
+            } else {
+                let mut cos_s = -sp.n.dot(dir);
+                if sp.twosided {
+                    cos_s = cos_s.abs();
+                }
+                if cos_s <= 0.0 {
+                    continue;
+                }
+                // Wallace et al.'s disk approximation keeps the kernel finite nearby.
+                sp.radiosity * (cos_s * cos_v * sp.area / (std::f32::consts::PI * r2 + sp.area))
+            };
+            unocc += e;
+            rays += 1;
+            let side = if v.n.dot(dir) >= 0.0 { v.n } else { -v.n };
+            let eps = ray_epsilon(v.p);
+            let origin = v.p + side * eps;
+            let tmax = if light.is_some() {
+                r - eps
+            } else {
+                r - 2.0 * ray_epsilon(sp.p) - eps
+            };
+            let ray = Ray {
+                origin,
+                dir,
+                tmin: 0.0,
+                tmax: tmax.max(0.0),
+            };
+            if !self.accel.occluded(&ray) {
+                occ += e;
+            }
+        }
+        (occ, unocc, rays)
+    }
+
+    /// Shoots from `points` of `source` to every vertex not on the source itself and
+    /// files the light in the lists or general radiosity. Returns the patches that
+    /// received light.
+    fn shoot(&mut self, source: SourceId, points: &[ShootPoint]) -> Vec<usize> {
+        if points.is_empty() {
+            return Vec::new();
+        }
+        let skip_patch = match source {
+            SourceId::Patch(p) => Some(p),
+            SourceId::Light(_) => None,
+        };
+        let sampled = match source {
+            SourceId::Light(l) => match &self.scene.lights[l as usize] {
+                Light::Point { .. } | Light::Spot { .. } => {
+                    Some(SampledLight::prepare(self.scene, &self.scene.lights[l as usize]))
+                }
+                Light::Area { .. } => None,
+            },
+            SourceId::Patch(_) => None,
+        };
+        // Per patch, in parallel: received light at its vertices.
+        let mesh = &self.mesh;
+        let results: Vec<Option<(Vec<Rgb>, Vec<Rgb>, u64)>> = (0..mesh.patches.len())
+            .into_par_iter()
+            .map(|p| {
+                let patch = &mesh.patches[p];
+                if Some(p as u32) == skip_patch || patch.reflectance.max_element() <= 0.0 {
+                    return None;
+                }
+                let first = patch.first_vertex as usize;
+                let mut occ = Vec::with_capacity(patch.vertex_count as usize);
+                let mut unocc = Vec::with_capacity(patch.vertex_count as usize);
+                let mut rays = 0;
+                for v in &mesh.vertices[first..first + patch.vertex_count as usize] {
+                    let (o, u, r) = self.gather(points, v, patch.twosided, sampled.as_ref());
+                    occ.push(o * patch.reflectance);
+                    unocc.push(u * patch.reflectance);
+                    rays += r;
+                }
+                Some((occ, unocc, rays))
+            })
+            .collect();
+        let mut touched = Vec::new();
+        for (p, r) in results.into_iter().enumerate() {
+            let Some((occ, unocc, rays)) = r else { continue };
+            self.stats.rays += rays;
+            let patch = &self.mesh.patches[p];
+            let first = patch.first_vertex as usize;
+            let power: f32 = unocc
+                .iter()
+                .zip(&self.mesh.vertices[first..])
+                .map(|(c, v)| mean(*c) * v.area)
+                .sum();
+            if !(power > 0.0) {
+                continue;
+            }
+            touched.push(p);
+            for (k, c) in occ.iter().enumerate() {
+                self.unshot[first + k] += *c;
+            }
+            self.file(p, source, occ, unocc, power);
+        }
+        touched
+    }
+
+    /// Puts a source's contribution to patch `p` in its list or its general radiosity.
+    fn file(&mut self, p: usize, source: SourceId, occ: Vec<Rgb>, unocc: Vec<Rgb>, power: f32) {
+        let first = self.mesh.patches[p].first_vertex as usize;
+        let n = self.settings.sources_per_patch as usize;
+        let list = &mut self.lists[p];
+        if let Some(e) = list.iter_mut().find(|e| e.source == source) {
+            for k in 0..occ.len() {
+                e.occluded[k] += occ[k];
+                e.unoccluded[k] += unocc[k];
+            }
+            e.power += power;
+            return;
+        }
+        if list.len() < n {
+            list.push(ListEntry {
+                source,
+                occluded: occ,
+                unoccluded: unocc,
+                power,
+            });
+            return;
+        }
+        let weakest = list
+            .iter()
+            .enumerate()
+            .min_by(|a, b| a.1.power.total_cmp(&b.1.power))
+            .map(|(i, e)| (i, e.power));
+        match weakest {
+            Some((i, w)) if power > w => {
+                let old = std::mem::replace(
+                    &mut list[i],
+                    ListEntry {
+                        source,
+                        occluded: occ,
+                        unoccluded: unocc,
+                        power,
+                    },
+                );
+                for (k, c) in old.occluded.iter().enumerate() {
+                    self.general[first + k] += *c;
+                }
+            }
+            _ => {
+                for (k, c) in occ.iter().enumerate() {
+                    self.general[first + k] += *c;
+                }
+            }
+        }
+    }
+}
