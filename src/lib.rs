@@ -21,5 +21,7 @@ pub mod radiosity;
 pub mod render;
 pub mod scene;
 pub mod stats;
+#[cfg(test)]
+pub(crate) mod testutil;
 
 pub use error::{Error, Result};

@@ -77,6 +77,11 @@ pub struct MeshVertex {
     pub p: Vec3,
     /// Unit normal (front side).
     pub n: Vec3,
+    /// Where the vertex receives light: its position moved a hair (1e-3 of the
+    /// patch's parameter range) into the patch, so that vertices on an edge shared
+    /// with another patch do not lie in that patch's plane (where the point form
+    /// factor to it jumps to zero).
+    pub q: Vec3,
     /// The share of the patch's area this vertex stands for.
     pub area: f32,
     /// The patch it belongs to.
@@ -439,67 +444,94 @@ impl RadiosityMesh {
         grid.interp(st.x, st.y)
     }
 
-    /// Stratified points on patch `patch` for shooting from it: `count` points with
-    /// their position, normal, area share and the vertex weights there. `u` gives the
-    /// jitter of each point in `[0,1)^2`.
-    pub fn sample_points(&self, patch: u32, count: u32, u: impl Fn(u32) -> Vec2) -> Vec<PatchPoint> {
+    /// The patch cut into about `count` cells for shooting from it (stratified:
+    /// cells of a regular grid over each of the patch's grids, in proportion to
+    /// area), each with a point jittered inside it by `u`.
+    pub fn shoot_cells(&self, patch: u32, count: u32, u: impl Fn(u32) -> Vec2) -> Vec<ShootCell> {
         let p = &self.patches[patch as usize];
-        let mut out = Vec::with_capacity(count as usize);
-        // Spread the points over the grids in proportion to their area.
         let areas: Vec<f32> = p.grids.iter().map(grid_area).collect();
         let total: f32 = areas.iter().sum();
+        let mut out = Vec::with_capacity(count as usize);
         if !(total > 0.0) {
             return out;
         }
-        let side = (count as f32).sqrt().ceil().max(1.0) as u32;
         for (g, grid) in p.grids.iter().enumerate() {
-            let share = areas[g] / total;
-            let k = ((count as f32 * share).round() as u32).max(1);
-            for idx in 0..k {
-                let r = u(idx + g as u32 * 7919);
-                // Stratify on a side x side lattice of the k points.
-                let (cx, cy) = ((idx % side) as f32, ((idx / side) % side) as f32);
-                let (mut s, mut t) = ((cx + r.x) / side as f32, (cy + r.y) / side as f32);
-                if k < side * side {
-                    s = (idx as f32 + r.x) / k as f32;
-                    t = r.y;
-                }
-                let (s, t, jac_scale) = match grid.domain {
-                    Domain::Tri(_) => {
-                        // Uniform on the triangle: (1 - sqrt(s)) mapping.
-                        let q = s.sqrt();
-                        (q * (1.0 - t), q * t, 0.5)
-                    }
-                    _ => (s, t, 1.0),
+            let k = (count as f32 * areas[g] / total).max(1.0);
+            let side = (k.sqrt().round() as u32).max(1);
+            let base = g as u32 * 65_537;
+            let mut push = |corners: Vec<(f32, f32)>, idx: u32| {
+                let r = u(base + idx);
+                // Uniform point in the cell (triangle or parallelogram in parameters).
+                let (s, t) = if corners.len() == 3 {
+                    let q = r.x.sqrt();
+                    let (b1, b2) = (q * (1.0 - r.y), q * r.y);
+                    let (c0, c1, c2) = (corners[0], corners[1], corners[2]);
+                    (
+                        c0.0 + (c1.0 - c0.0) * b1 + (c2.0 - c0.0) * b2,
+                        c0.1 + (c1.1 - c0.1) * b1 + (c2.1 - c0.1) * b2,
+                    )
+                } else {
+                    (corners[0].0 + (corners[1].0 - corners[0].0) * r.x, corners[0].1 + (corners[3].1 - corners[0].1) * r.y)
                 };
                 let (pos, n) = grid.eval(s, t);
-                let area = match grid.domain {
-                    Domain::Tri(_) => grid.jacobian(s, t) * jac_scale / k as f32,
-                    _ => grid.jacobian(s, t) / k as f32,
-                };
-                out.push(PatchPoint {
-                    p: pos,
-                    n,
-                    area,
-                    interp: grid.interp(s, t),
-                });
+                let mut poly = [Vec3::ZERO; 4];
+                for (c, &(cs, ct)) in corners.iter().enumerate() {
+                    poly[c] = grid.eval(cs, ct).0;
+                }
+                out.push(ShootCell { corners: poly, len: corners.len() as u8, p: pos, n, interp: grid.interp(s, t) });
+            };
+            match grid.domain {
+                Domain::Tri(_) => {
+                    let m = side;
+                    let f = |i: u32, j: u32| (i as f32 / m as f32, j as f32 / m as f32);
+                    let mut idx = 0;
+                    for j in 0..m {
+                        for i in 0..m - j {
+                            push(vec![f(i, j), f(i + 1, j), f(i, j + 1)], idx);
+                            idx += 1;
+                            if i + j + 1 < m {
+                                push(vec![f(i + 1, j + 1), f(i, j + 1), f(i + 1, j)], idx);
+                                idx += 1;
+                            }
+                        }
+                    }
+                }
+                _ => {
+                    let f = |i: u32, j: u32| (i as f32 / side as f32, j as f32 / side as f32);
+                    for j in 0..side {
+                        for i in 0..side {
+                            push(vec![f(i, j), f(i + 1, j), f(i + 1, j + 1), f(i, j + 1)], j * side + i);
+                        }
+                    }
+                }
             }
         }
         out
     }
 }
 
-/// A point on a patch used for shooting.
+/// A piece of a patch that shoots light: its corner polygon (for the exact
+/// unoccluded form factor) and a jittered point in it (for visibility and for the
+/// radiosity it carries).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PatchPoint {
-    /// Position.
+pub struct ShootCell {
+    /// Corners, counter-clockwise seen from the front; `len` of them are used.
+    pub corners: [Vec3; 4],
+    /// 3 or 4.
+    pub len: u8,
+    /// The jittered point.
     pub p: Vec3,
-    /// Unit normal (front).
+    /// Unit normal at the point (front).
     pub n: Vec3,
-    /// Area this point stands for.
-    pub area: f32,
     /// Vertex weights at the point.
     pub interp: Interp,
+}
+
+impl ShootCell {
+    /// The corner polygon.
+    pub fn polygon(&self) -> &[Vec3] {
+        &self.corners[..self.len as usize]
+    }
 }
 
 fn grid_area(g: &Grid) -> f32 {
@@ -555,6 +587,9 @@ fn grid_size(domain: &Domain, size: f32) -> (u32, u32) {
     }
 }
 
+/// How far receiving points move towards the patch centre, in parameter units.
+const NUDGE: f32 = 2e-3;
+
 /// The vertices of a grid with their area shares, and the grid's area.
 fn grid_vertices(grid: &Grid, patch: u32) -> (Vec<MeshVertex>, f32) {
     let mut verts = Vec::with_capacity(grid.vertex_count() as usize);
@@ -564,13 +599,10 @@ fn grid_vertices(grid: &Grid, patch: u32) -> (Vec<MeshVertex>, f32) {
             let k = grid.n;
             for j in 0..=k {
                 for i in 0..=k - j {
-                    let (p, n) = grid.eval(i as f32 / k as f32, j as f32 / k as f32);
-                    verts.push(MeshVertex {
-                        p,
-                        n,
-                        area: 0.0,
-                        patch,
-                    });
+                    let (a, b) = (i as f32 / k as f32, j as f32 / k as f32);
+                    let (p, n) = grid.eval(a, b);
+                    let (q, _) = grid.eval(a + (1.0 / 3.0 - a) * NUDGE, b + (1.0 / 3.0 - b) * NUDGE);
+                    verts.push(MeshVertex { p, n, q, area: 0.0, patch });
                 }
             }
             let elem = 0.5 * grid.jacobian(0.0, 0.0) / (k * k) as f32;
@@ -601,13 +633,10 @@ fn grid_vertices(grid: &Grid, patch: u32) -> (Vec<MeshVertex>, f32) {
             let (n, m) = (grid.n, grid.m);
             for j in 0..=m {
                 for i in 0..=n {
-                    let (p, nn) = grid.eval(i as f32 / n as f32, j as f32 / m as f32);
-                    verts.push(MeshVertex {
-                        p,
-                        n: nn,
-                        area: 0.0,
-                        patch,
-                    });
+                    let (a, b) = (i as f32 / n as f32, j as f32 / m as f32);
+                    let (p, nn) = grid.eval(a, b);
+                    let (q, _) = grid.eval(a + (0.5 - a) * NUDGE, b + (0.5 - b) * NUDGE);
+                    verts.push(MeshVertex { p, n: nn, q, area: 0.0, patch });
                 }
             }
             for j in 0..m {

@@ -10,6 +10,7 @@
 //! list is folded into the general radiosity of that patch, so every source reaches a
 //! vertex by exactly one route. Further shooting always uses the total.
 
+use std::collections::BTreeSet;
 use std::time::Instant;
 
 use glam::{Vec2, Vec3};
@@ -115,15 +116,67 @@ impl Solution {
     }
 }
 
-/// A point light sources shoot from: position, normal (zero for point lights),
-/// area, and emitted radiosity (for point lights: intensity, with `area` 0).
+/// Where a shot comes from: a point light, or a cell of an emitting or reflecting
+/// surface with the radiosity it sends.
 #[derive(Debug, Clone, Copy)]
 struct ShootPoint {
+    /// The light's position, or the jittered point in the cell (shadow rays aim here).
     p: Vec3,
+    /// The cell's normal (unused for point lights).
     n: Vec3,
-    area: f32,
+    /// The cell's corner polygon (`len` 0 for point lights).
+    poly: [Vec3; 4],
+    len: u8,
+    /// Radiosity the cell emits (for point lights: the intensity).
     radiosity: Rgb,
     twosided: bool,
+}
+
+impl ShootPoint {
+    fn from_cell(c: &crate::mesh::ShootCell, radiosity: Rgb, twosided: bool) -> Self {
+        ShootPoint { p: c.p, n: c.n, poly: c.corners, len: c.len, radiosity, twosided }
+    }
+
+    fn point(p: Vec3, intensity: Rgb) -> Self {
+        ShootPoint { p, n: Vec3::ZERO, poly: [Vec3::ZERO; 4], len: 0, radiosity: intensity, twosided: false }
+    }
+}
+
+/// The exact form factor from a differential area at `x` with unit normal `n` to a
+/// polygon (Lambert's formula), after clipping the polygon to the hemisphere above
+/// `x`. Unoccluded.
+pub fn point_polygon_form_factor(x: Vec3, n: Vec3, poly: &[Vec3]) -> f32 {
+    // Clip against the plane n . (y - x) >= 0 (Sutherland-Hodgman, one plane).
+    let mut clipped = [Vec3::ZERO; 8];
+    let mut len = 0;
+    let m = poly.len();
+    for i in 0..m {
+        let (a, b) = (poly[i], poly[(i + 1) % m]);
+        let (da, db) = (n.dot(a - x), n.dot(b - x));
+        if da >= 0.0 {
+            clipped[len] = a;
+            len += 1;
+        }
+        if (da >= 0.0) != (db >= 0.0) {
+            let t = da / (da - db);
+            clipped[len] = a + (b - a) * t;
+            len += 1;
+        }
+    }
+    if len < 3 {
+        return 0.0;
+    }
+    let mut sum = 0.0;
+    for i in 0..len {
+        let ri = (clipped[i] - x).normalize_or_zero();
+        let rj = (clipped[(i + 1) % len] - x).normalize_or_zero();
+        let c = ri.cross(rj);
+        let l = c.length();
+        if l > 1e-12 {
+            sum += n.dot(c / l) * l.atan2(ri.dot(rj));
+        }
+    }
+    sum.abs() / (2.0 * std::f32::consts::PI)
 }
 
 fn mean(c: Rgb) -> f32 {
@@ -169,6 +222,17 @@ pub fn solve(
     settings: &SolveSettings,
     progress: Option<&ProgressBar>,
 ) -> Solution {
+    solve_traced(scene, accel, settings, progress).0
+}
+
+/// [`solve`], also returning for each patch the sources whose light went into its
+/// general radiosity (for checking that no source reaches a patch by two routes).
+pub(crate) fn solve_traced(
+    scene: &Scene,
+    accel: &dyn Accel,
+    settings: &SolveSettings,
+    progress: Option<&ProgressBar>,
+) -> (Solution, Vec<BTreeSet<SourceId>>) {
     let start = Instant::now();
     let mesh = RadiosityMesh::build(scene, settings.mesh_size);
     let nv = mesh.vertices.len();
@@ -179,6 +243,7 @@ pub fn solve(
         general: vec![Vec3::ZERO; nv],
         unshot: vec![Vec3::ZERO; nv],
         lists: vec![Vec::new(); mesh.patches.len()],
+        folded: vec![BTreeSet::new(); mesh.patches.len()],
         stats: SolveStats {
             elements: mesh.element_count() as u64,
             vertices: nv as u64,
@@ -231,13 +296,8 @@ pub fn solve(
         }
     }
     s.stats.time_s = start.elapsed().as_secs_f64();
-    Solution {
-        mesh: s.mesh,
-        settings: *settings,
-        general: s.general,
-        lists: s.lists,
-        stats: s.stats,
-    }
+    let solution = Solution { mesh: s.mesh, settings: *settings, general: s.general, lists: s.lists, stats: s.stats };
+    (solution, s.folded)
 }
 
 struct Solver<'a> {
@@ -248,6 +308,9 @@ struct Solver<'a> {
     general: Vec<Rgb>,
     unshot: Vec<Rgb>,
     lists: Vec<Vec<ListEntry>>,
+    /// Per patch, the sources already folded into its general radiosity: they may
+    /// never enter its list again (one route per source).
+    folded: Vec<BTreeSet<SourceId>>,
     stats: SolveStats,
 }
 
@@ -269,26 +332,8 @@ impl Solver<'_> {
     /// Shooting points of light `l`.
     fn light_points(&self, l: u32) -> Vec<ShootPoint> {
         match self.scene.lights[l as usize] {
-            Light::Point { position, intensity } => {
-                vec![ShootPoint {
-                    p: position,
-                    n: Vec3::ZERO,
-                    area: 0.0,
-                    radiosity: intensity,
-                    twosided: false,
-                }]
-            }
-            Light::Spot {
-                position, intensity, ..
-            } => {
-                vec![ShootPoint {
-                    p: position,
-                    n: Vec3::ZERO,
-                    area: 0.0,
-                    radiosity: intensity,
-                    twosided: false,
-                }]
-            }
+            Light::Point { position, intensity } => vec![ShootPoint::point(position, intensity)],
+            Light::Spot { position, intensity, .. } => vec![ShootPoint::point(position, intensity)],
             Light::Area { shape, radiance } => {
                 let first = self.mesh.shape_first_patch[shape as usize] as usize;
                 let last = self
@@ -303,15 +348,9 @@ impl Solver<'_> {
                 for p in first..last {
                     let share = self.mesh.patches[p].area / area;
                     let k = ((self.settings.shoot_samples as f32 * share).round() as u32).max(1);
-                    let base = pts.len() as u32;
-                    for sp in self.mesh.sample_points(p as u32, k, |i| jitter(base + i)) {
-                        pts.push(ShootPoint {
-                            p: sp.p,
-                            n: sp.n,
-                            area: sp.area,
-                            radiosity: radiance * std::f32::consts::PI,
-                            twosided: false,
-                        });
+                    let base = (p - first) as u32 * 1_000_003;
+                    for c in self.mesh.shoot_cells(p as u32, k, |i| jitter(base.wrapping_add(i))) {
+                        pts.push(ShootPoint::from_cell(&c, radiance * std::f32::consts::PI, false));
                     }
                 }
                 pts
@@ -319,20 +358,14 @@ impl Solver<'_> {
         }
     }
 
-    /// Shooting points of patch `p`, carrying its unshot radiosity.
+    /// Shooting cells of patch `p`, carrying its unshot radiosity.
     fn patch_points(&self, p: u32) -> Vec<ShootPoint> {
         let jitter = self.jitter(self.stats.patch_shots + 1);
         let twosided = self.mesh.patches[p as usize].twosided;
         self.mesh
-            .sample_points(p, self.settings.shoot_samples, jitter)
-            .into_iter()
-            .map(|sp| ShootPoint {
-                p: sp.p,
-                n: sp.n,
-                area: sp.area,
-                radiosity: sp.interp.apply(&self.unshot),
-                twosided,
-            })
+            .shoot_cells(p, self.settings.shoot_samples, jitter)
+            .iter()
+            .map(|c| ShootPoint::from_cell(c, c.interp.apply(&self.unshot), twosided))
             .filter(|sp| sp.radiosity.max_element() > 0.0)
             .collect()
     }
@@ -348,54 +381,45 @@ impl Solver<'_> {
         let mut occ = Vec3::ZERO;
         let mut unocc = Vec3::ZERO;
         let mut rays = 0;
+        let x = v.q;
         for sp in points {
-            let d = sp.p - v.p;
+            let d = sp.p - x;
             let r2 = d.length_squared();
             if !(r2 > 0.0) {
                 continue;
             }
             let r = r2.sqrt();
             let dir = d / r;
-            let mut cos_v = v.n.dot(dir);
-            if twosided {
-                cos_v = cos_v.abs();
-            }
-            if cos_v <= 0.0 {
-                continue;
-            }
+            // The receiving side: the front, or for two-sided surfaces the side facing the source.
+            let n = if twosided && v.n.dot(dir) < 0.0 { -v.n } else { v.n };
             let e = if let Some(l) = light {
                 // Point or spot light: I * falloff / r^2 * cos.
-                match l.sample(v.p, Vec2::ZERO) {
+                let cos_v = n.dot(dir);
+                if cos_v <= 0.0 {
+                    continue;
+                }
+                match l.sample(x, Vec2::ZERO) {
                     Some(s) => s.value * cos_v,
                     None => continue,
                 }
             } else {
-                let mut cos_s = -sp.n.dot(dir);
-                if sp.twosided {
-                    cos_s = cos_s.abs();
-                }
-                if cos_s <= 0.0 {
+                // The cell emits from its front (or both sides when two-sided).
+                if !sp.twosided && sp.n.dot(-dir) <= 0.0 {
                     continue;
                 }
-                // Wallace et al.'s disk approximation keeps the kernel finite nearby.
-                sp.radiosity * (cos_s * cos_v * sp.area / (std::f32::consts::PI * r2 + sp.area))
+                let f = point_polygon_form_factor(x, n, &sp.poly[..sp.len as usize]);
+                if !(f > 0.0) {
+                    continue;
+                }
+                sp.radiosity * f
             };
             unocc += e;
             rays += 1;
-            let side = if v.n.dot(dir) >= 0.0 { v.n } else { -v.n };
-            let eps = ray_epsilon(v.p);
-            let origin = v.p + side * eps;
-            let tmax = if light.is_some() {
-                r - eps
-            } else {
-                r - 2.0 * ray_epsilon(sp.p) - eps
-            };
-            let ray = Ray {
-                origin,
-                dir,
-                tmin: 0.0,
-                tmax: tmax.max(0.0),
-            };
+            let side = if n.dot(dir) >= 0.0 { n } else { -n };
+            let eps = ray_epsilon(x);
+            let origin = x + side * eps;
+            let tmax = if light.is_some() { r - eps } else { r - 2.0 * ray_epsilon(sp.p) - eps };
+            let ray = Ray { origin, dir, tmin: 0.0, tmax: tmax.max(0.0) };
             if !self.accel.occluded(&ray) {
                 occ += e;
             }
@@ -473,6 +497,13 @@ impl Solver<'_> {
         let first = self.mesh.patches[p].first_vertex as usize;
         let n = self.settings.sources_per_patch as usize;
         let list = &mut self.lists[p];
+        let folded = &mut self.folded[p];
+        let general = &mut self.general;
+        let fold = |general: &mut Vec<Rgb>, values: &[Rgb]| {
+            for (k, c) in values.iter().enumerate() {
+                general[first + k] += *c;
+            }
+        };
         if let Some(e) = list.iter_mut().find(|e| e.source == source) {
             for k in 0..occ.len() {
                 e.occluded[k] += occ[k];
@@ -481,40 +512,185 @@ impl Solver<'_> {
             e.power += power;
             return;
         }
-        if list.len() < n {
-            list.push(ListEntry {
-                source,
-                occluded: occ,
-                unoccluded: unocc,
-                power,
-            });
-            return;
+        if !folded.contains(&source) {
+            if list.len() < n {
+                list.push(ListEntry { source, occluded: occ, unoccluded: unocc, power });
+                return;
+            }
+            let weakest = list.iter().enumerate().min_by(|a, b| a.1.power.total_cmp(&b.1.power));
+            if let Some((i, e)) = weakest {
+                if power > e.power {
+                    let entry = ListEntry { source, occluded: occ, unoccluded: unocc, power };
+                    let old = std::mem::replace(&mut list[i], entry);
+                    fold(general, &old.occluded);
+                    folded.insert(old.source);
+                    return;
+                }
+            }
         }
-        let weakest = list
+        fold(general, &occ);
+        folded.insert(source);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::Bvh;
+    use crate::testutil::{box_inside, quad, scene};
+    use std::f32::consts::PI;
+
+    fn settings(mesh_size: f32, samples: u32, max_shots: u32) -> SolveSettings {
+        SolveSettings {
+            mesh_size,
+            sources_per_patch: 4,
+            shoot_samples: samples,
+            tolerance: 1e-4,
+            max_shots,
+            seed: 3,
+        }
+    }
+
+    /// Area-weighted mean of the total radiosity over the vertices of patch `p`.
+    fn patch_mean(sol: &Solution, total: &[Rgb], p: usize) -> f32 {
+        let patch = &sol.mesh.patches[p];
+        let vs = patch.first_vertex as usize..(patch.first_vertex + patch.vertex_count) as usize;
+        let (mut s, mut a) = (0.0, 0.0);
+        for v in vs {
+            s += total[v].x * sol.mesh.vertices[v].area;
+            a += sol.mesh.vertices[v].area;
+        }
+        s / a
+    }
+
+    /// Form factor from receiver B (shape 0, reflectance 1) to emitter A (shape 1,
+    /// radiosity 1): the mean radiosity B gets from one light shot.
+    fn form_factor(receiver: [Vec3; 4], emitter: [Vec3; 4]) -> f32 {
+        let s = scene(
+            vec![(quad(receiver), Vec3::ONE), (quad(emitter), Vec3::ZERO)],
+            vec![],
+            &[(1, Vec3::splat(1.0 / PI))],
+        );
+        let sol = solve(&s, &Bvh::build(&s), &settings(0.05, 1024, 0), None);
+        patch_mean(&sol, &sol.total(), 0)
+    }
+
+    #[test]
+    fn form_factor_between_parallel_unit_squares_one_apart() {
+        let v = Vec3::new;
+        let f = form_factor(
+            [v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.), v(0., 1., 0.)],
+            [v(0., 0., 1.), v(0., 1., 1.), v(1., 1., 1.), v(1., 0., 1.)],
+        );
+        assert!((f - 0.19982).abs() < 0.001, "F = {f}");
+    }
+
+    #[test]
+    fn form_factor_between_perpendicular_unit_squares_sharing_an_edge() {
+        let v = Vec3::new;
+        let f = form_factor(
+            [v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.), v(0., 1., 0.)],
+            [v(0., 0., 0.), v(0., 1., 0.), v(0., 1., 1.), v(0., 0., 1.)],
+        );
+        assert!((f - 0.20004).abs() < 0.002, "F = {f}");
+    }
+
+    /// A closed cube whose faces all emit radiosity E and reflect rho: the reflected
+    /// radiosity converges to rho E / (1 - rho) (total E / (1 - rho)).
+    #[test]
+    fn furnace_converges_to_e_over_one_minus_rho() {
+        let rho = 0.5;
+        let e = 1.0;
+        let faces = box_inside(Vec3::ZERO, Vec3::ONE);
+        let emitters: Vec<(usize, Rgb)> = (0..6).map(|i| (i, Vec3::splat(e / PI))).collect();
+        let s = scene(faces.into_iter().map(|f| (f, Vec3::splat(rho))).collect(), vec![], &emitters);
+        let mut st = settings(0.1, 64, 2000);
+        st.tolerance = 1e-3;
+        let sol = solve(&s, &Bvh::build(&s), &st, None);
+        let total = sol.total();
+        let expect = rho * e / (1.0 - rho);
+        for p in 0..6 {
+            let m = patch_mean(&sol, &total, p);
+            assert!((m - expect).abs() < 0.005 * expect, "face {p}: {m} vs {expect}");
+        }
+        assert!(sol.stats.residual <= 1e-3, "residual {}", sol.stats.residual);
+    }
+
+    /// Emitted = absorbed + unshot, in a closed box lit by a point light.
+    #[test]
+    fn energy_is_conserved_in_a_closed_box() {
+        let rho = 0.6;
+        let faces = box_inside(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.5));
+        let light = Light::Point { position: Vec3::new(0.7, 0.6, 0.5), intensity: Vec3::splat(3.0) };
+        let s = scene(faces.into_iter().map(|f| (f, Vec3::splat(rho))).collect(), vec![light], &[]);
+        let mut st = settings(0.1, 32, 300);
+        st.tolerance = 0.02;
+        let sol = solve(&s, &Bvh::build(&s), &st, None);
+        let total = sol.total();
+        let absorbed: f64 = sol
+            .mesh
+            .vertices
             .iter()
-            .enumerate()
-            .min_by(|a, b| a.1.power.total_cmp(&b.1.power))
-            .map(|(i, e)| (i, e.power));
-        match weakest {
-            Some((i, w)) if power > w => {
-                let old = std::mem::replace(
-                    &mut list[i],
-                    ListEntry {
-                        source,
-                        occluded: occ,
-                        unoccluded: unocc,
-                        power,
-                    },
-                );
-                for (k, c) in old.occluded.iter().enumerate() {
-                    self.general[first + k] += *c;
-                }
+            .zip(&total)
+            .map(|(v, b)| (b.x / rho * (1.0 - rho) * v.area) as f64)
+            .sum();
+        let unshot = sol.stats.residual * sol.stats.emitted_power;
+        let emitted = sol.stats.emitted_power;
+        assert!((emitted - 4.0 * std::f64::consts::PI * 3.0).abs() < 1e-3);
+        assert!(((absorbed + unshot) - emitted).abs() < 0.015 * emitted, "{absorbed} + {unshot} vs {emitted}");
+    }
+
+    /// Keeping sources apart changes where light is stored, never how much.
+    #[test]
+    fn lists_plus_general_equal_the_total_of_an_unseparated_solve() {
+        let faces = box_inside(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.5));
+        let mut shapes: Vec<(crate::geometry::TriMesh, Rgb)> =
+            faces.into_iter().map(|f| (f, Vec3::new(0.7, 0.5, 0.3))).collect();
+        // An occluder, so that some contributions are partly shadowed.
+        let v = Vec3::new;
+        shapes.push((quad([v(0.8, 0.2, 0.7), v(1.2, 0.2, 0.7), v(1.2, 0.2, 1.1), v(0.8, 0.2, 1.1)]), Vec3::splat(0.5)));
+        let lights = vec![
+            Light::Point { position: v(0.5, 0.8, 0.7), intensity: Vec3::splat(2.0) },
+            Light::Point { position: v(1.6, 0.5, 0.3), intensity: v(1.0, 2.0, 3.0) },
+        ];
+        let s = scene(shapes, lights, &[]);
+        let bvh = Bvh::build(&s);
+        let mut st = settings(0.2, 16, 60);
+        st.sources_per_patch = 0;
+        let plain = solve(&s, &bvh, &st, None);
+        assert!(plain.lists.iter().all(|l| l.is_empty()));
+        st.sources_per_patch = 2;
+        let (sep, folded) = solve_traced(&s, &bvh, &st, None);
+        assert!(sep.lists.iter().any(|l| l.len() == 2), "some patch keeps two sources");
+        let (a, b) = (plain.total(), sep.total());
+        for (x, y) in a.iter().zip(&b) {
+            assert!((*x - *y).abs().max_element() <= 1e-4 * (1.0 + x.max_element()), "{x} vs {y}");
+        }
+        // One route per source: nothing listed on a patch was folded into its general term.
+        for (p, list) in sep.lists.iter().enumerate() {
+            for e in list {
+                assert!(!folded[p].contains(&e.source), "patch {p}: {:?} listed and folded", e.source);
             }
-            _ => {
-                for (k, c) in occ.iter().enumerate() {
-                    self.general[first + k] += *c;
-                }
+            assert!(list.len() <= 2);
+        }
+        // Unoccluded is never less than occluded.
+        for e in sep.lists.iter().flatten() {
+            for (o, u) in e.occluded.iter().zip(&e.unoccluded) {
+                assert!((*u - *o).min_element() >= -1e-6);
             }
         }
+    }
+
+    #[test]
+    fn same_seed_same_solution() {
+        let faces = box_inside(Vec3::ZERO, Vec3::ONE);
+        let light = Light::Point { position: Vec3::splat(0.5), intensity: Vec3::ONE };
+        let s = scene(faces.into_iter().map(|f| (f, Vec3::splat(0.5))).collect(), vec![light], &[]);
+        let bvh = Bvh::build(&s);
+        let st = settings(0.25, 8, 30);
+        let a = solve(&s, &bvh, &st, None);
+        let b = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| solve(&s, &bvh, &st, None));
+        assert_eq!(a.general, b.general);
+        assert_eq!(a.lists, b.lists);
     }
 }

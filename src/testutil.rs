@@ -1,0 +1,48 @@
+//! Small scenes built in code, for tests.
+
+use glam::Vec3;
+
+use crate::geometry::{Patch, TriMesh};
+use crate::scene::{Bsdf, BsdfKind, Light, Rgb, Scene, Shape};
+
+/// A quadrilateral patch with corners `c` (counter-clockwise seen from the front).
+pub fn quad(c: [Vec3; 4]) -> TriMesh {
+    TriMesh {
+        positions: c.to_vec(),
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        tri_patch: vec![0, 0],
+        patches: vec![Patch::Polygon(vec![0, 1, 2, 3])],
+        ..Default::default()
+    }
+}
+
+/// The six faces of the box `[lo, hi]`, facing inwards.
+pub fn box_inside(lo: Vec3, hi: Vec3) -> Vec<TriMesh> {
+    let p = |x: usize, y: usize, z: usize| {
+        Vec3::new([lo.x, hi.x][x], [lo.y, hi.y][y], [lo.z, hi.z][z])
+    };
+    vec![
+        quad([p(0, 0, 0), p(1, 0, 0), p(1, 1, 0), p(0, 1, 0)]), // z = lo, facing +z
+        quad([p(0, 0, 1), p(0, 1, 1), p(1, 1, 1), p(1, 0, 1)]), // z = hi, facing -z
+        quad([p(0, 0, 0), p(0, 0, 1), p(1, 0, 1), p(1, 0, 0)]), // y = lo, facing +y
+        quad([p(0, 1, 0), p(1, 1, 0), p(1, 1, 1), p(0, 1, 1)]), // y = hi, facing -y
+        quad([p(0, 0, 0), p(0, 1, 0), p(0, 1, 1), p(0, 0, 1)]), // x = lo, facing +x
+        quad([p(1, 0, 0), p(1, 0, 1), p(1, 1, 1), p(1, 1, 0)]), // x = hi, facing -x
+    ]
+}
+
+/// A scene of diffuse shapes (mesh, reflectance) and lights; `emitters` lists
+/// (shape, radiance) pairs made area lights.
+pub fn scene(shapes: Vec<(TriMesh, Rgb)>, mut lights: Vec<Light>, emitters: &[(usize, Rgb)]) -> Scene {
+    let mut s = Scene { path: "test.xml".into(), shapes: vec![], bsdfs: vec![], lights: vec![], sensors: vec![] };
+    for (i, (mesh, rho)) in shapes.into_iter().enumerate() {
+        s.bsdfs.push(Bsdf { name: format!("b{i}"), kind: BsdfKind::Diffuse { reflectance: rho }, twosided: false });
+        s.shapes.push(Shape { name: format!("s{i}"), mesh, bsdf: i as u32, emitter: None });
+    }
+    for &(shape, radiance) in emitters {
+        s.shapes[shape].emitter = Some(lights.len() as u32);
+        lights.push(Light::Area { shape: shape as u32, radiance });
+    }
+    s.lights = lights;
+    s
+}
