@@ -8,6 +8,8 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde_json::json;
 
 use crate::accel::Bvh;
+use crate::io::solution;
+use crate::radiosity::{self, Solution, SolveSettings};
 use crate::render::{self, Filter, Method, Settings};
 use crate::scene::{xml, Light, Scene};
 use crate::stats::Timings;
@@ -28,6 +30,8 @@ pub struct Cli {
 pub enum Command {
     /// Render a view of a scene to an image.
     Render(RenderArgs),
+    /// Compute the view-independent radiosity solution (pass 1) and save it.
+    Solve(SolveCmdArgs),
     /// Print what a scene contains (shapes, lights, views).
     Info(InfoArgs),
     /// Write a Bezier patch file (.bpt) as a triangle mesh (.obj), e.g. for Mitsuba.
@@ -44,6 +48,75 @@ pub struct SceneArgs {
     /// Set a scene parameter declared with <default name=...> (repeatable).
     #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
     pub defines: Vec<(String, String)>,
+}
+
+/// Settings of the radiosity pass (pass 1).
+#[derive(Debug, Args)]
+pub struct SolveArgs {
+    /// Largest radiosity element edge, in scene units [default: the scene's
+    /// bounding-box diagonal / 40].
+    #[arg(long, value_name = "SIZE")]
+    mesh_size: Option<f32>,
+    /// n: light sources kept apart, per patch, from the general radiosity.
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(0..=64))]
+    sources_per_patch: u32,
+    /// Sample cells per area light or shooting patch in each shot.
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    shoot_samples: u32,
+    /// Stop when the unshot power falls below this fraction of the emitted power.
+    #[arg(long, default_value_t = 0.01, value_name = "FRACTION")]
+    solve_tolerance: f32,
+    /// Stop after this many patch shots at most.
+    #[arg(long, default_value_t = 20000)]
+    max_shots: u32,
+}
+
+impl SolveArgs {
+    fn settings(&self, scene: &Scene, seed: u64) -> Result<SolveSettings> {
+        let mesh_size = match self.mesh_size {
+            Some(m) if m.is_finite() && m > 0.0 => m,
+            Some(m) => return Err(Error::Usage(format!("--mesh-size {m}: must be a positive length"))),
+            None => crate::mesh::default_mesh_size(scene),
+        };
+        if !(0.0..=1.0).contains(&self.solve_tolerance) {
+            return Err(Error::Usage(format!(
+                "--solve-tolerance {}: must be a fraction between 0 and 1",
+                self.solve_tolerance
+            )));
+        }
+        Ok(SolveSettings {
+            mesh_size,
+            sources_per_patch: self.sources_per_patch,
+            shoot_samples: self.shoot_samples,
+            tolerance: self.solve_tolerance,
+            max_shots: self.max_shots,
+            seed,
+        })
+    }
+}
+
+/// `radtrace solve`.
+#[derive(Debug, Args)]
+pub struct SolveCmdArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// The solution file to write.
+    #[arg(short, long)]
+    output: PathBuf,
+    #[command(flatten)]
+    solve: SolveArgs,
+    /// Seed for the shooting samples.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Worker threads [default: all cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    threads: Option<u32>,
+    /// Write the solve's figures as JSON to this file.
+    #[arg(long, value_name = "FILE")]
+    stats: Option<PathBuf>,
+    /// No progress bar and no warnings on stderr.
+    #[arg(short, long)]
+    quiet: bool,
 }
 
 /// `radtrace render`.
@@ -93,6 +166,11 @@ pub struct RenderArgs {
     /// No progress bar and no warnings on stderr.
     #[arg(short, long)]
     quiet: bool,
+    /// Reuse a radiosity solution saved by `radtrace solve` instead of solving.
+    #[arg(long, value_name = "FILE")]
+    solution: Option<PathBuf>,
+    #[command(flatten)]
+    solve: SolveArgs,
 }
 
 /// `radtrace info`.
@@ -156,6 +234,7 @@ pub fn main() -> i32 {
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Render(a) => cmd_render(a),
+        Command::Solve(a) => cmd_solve(a),
         Command::Info(a) => cmd_info(a),
         Command::Tessellate(a) => cmd_tessellate(a),
         Command::Compare(a) => cmd_compare(a),
@@ -222,8 +301,16 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         if bvh.skipped > 0 && !a.quiet {
             eprintln!("radtrace: warning: {} degenerate triangle(s) ignored", bvh.skipped);
         }
+        let solution = if a.method == Method::Direct {
+            None
+        } else if let Some(path) = &a.solution {
+            Some(t.time("load_solution", || solution::load(path, &scene))?)
+        } else {
+            let st = a.solve.settings(&scene, a.seed)?;
+            Some(t.time("solve", || run_solve(&scene, &bvh, &st, a.quiet)))
+        };
         let pb = progress_bar(settings.height as u64, "render", a.quiet);
-        let out = render::render(&scene, &bvh, &settings, Some(&pb))?;
+        let out = render::render(&scene, &bvh, &settings, solution.as_ref(), Some(&pb))?;
         pb.finish_and_clear();
         t.add("render", out.trace_s);
         t.add("reconstruct", out.reconstruct_s);
@@ -265,10 +352,83 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
                 "diffuse_hits": c.diffuse_hits,
                 "reflection_rays": c.reflection_rays,
                 "shadow_rays_per_hit": per_hit,
+                "solve": solution.as_ref().map(solve_json),
                 "time_s": t.to_json(total.elapsed().as_secs_f64()),
             });
             let text = serde_json::to_string_pretty(&doc).expect("stats serialise") + "\n";
             crate::io::write_atomic(path, text.as_bytes())?;
+        }
+        Ok(())
+    })
+}
+
+/// Runs pass 1 with a progress bar.
+fn run_solve(scene: &Scene, bvh: &Bvh, st: &SolveSettings, quiet: bool) -> Solution {
+    let pb = progress_bar(1000, "solve", quiet);
+    let sol = radiosity::solve(scene, bvh, st, Some(&pb));
+    pb.finish_and_clear();
+    if !quiet {
+        let s = &sol.stats;
+        eprintln!(
+            "radtrace: solved: {} patches, {} elements, {} vertices (mesh size {:.4}); {} light + {} patch shots, {} rays, {:.2}% unshot, {:.2} s",
+            s.patches,
+            s.elements,
+            s.vertices,
+            st.mesh_size,
+            s.light_shots,
+            s.patch_shots,
+            s.rays,
+            100.0 * s.residual,
+            s.time_s
+        );
+    }
+    sol
+}
+
+/// The `solve` object of the statistics JSON.
+fn solve_json(sol: &Solution) -> serde_json::Value {
+    let s = &sol.stats;
+    json!({
+        "mesh_size": sol.settings.mesh_size,
+        "sources_per_patch": sol.settings.sources_per_patch,
+        "shoot_samples": sol.settings.shoot_samples,
+        "tolerance": sol.settings.tolerance,
+        "patches": s.patches,
+        "elements": s.elements,
+        "vertices": s.vertices,
+        "shots": s.light_shots + s.patch_shots,
+        "light_shots": s.light_shots,
+        "patch_shots": s.patch_shots,
+        "rays": s.rays,
+        "emitted_power": s.emitted_power,
+        "residual": s.residual,
+        "time_s": s.time_s,
+    })
+}
+
+fn cmd_solve(a: SolveCmdArgs) -> Result<()> {
+    let total = Instant::now();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.threads.unwrap_or(0) as usize)
+        .build()
+        .map_err(|e| Error::Usage(format!("cannot start worker threads: {e}")))?;
+    pool.install(|| {
+        let mut t = Timings::default();
+        let scene = t.time("load", || load_scene(&a.scene, a.quiet))?;
+        let st = a.solve.settings(&scene, a.seed)?;
+        let bvh = t.time("accel", || Bvh::build(&scene));
+        let sol = t.time("solve", || run_solve(&scene, &bvh, &st, a.quiet));
+        t.time("output", || solution::save(&sol, &scene, &a.output))?;
+        if let Some(path) = &a.stats {
+            let doc = json!({
+                "scene": scene.path,
+                "solve": solve_json(&sol),
+                "time_s": t.to_json(total.elapsed().as_secs_f64()),
+            });
+            crate::io::write_atomic(path, (serde_json::to_string_pretty(&doc).expect("json") + "\n").as_bytes())?;
+        }
+        if !a.quiet {
+            eprintln!("radtrace: solution -> {}", a.output.display());
         }
         Ok(())
     })

@@ -403,8 +403,11 @@ impl Solver<'_> {
                     None => continue,
                 }
             } else {
-                // The cell emits from its front (or both sides when two-sided).
-                if !sp.twosided && sp.n.dot(-dir) <= 0.0 {
+                // The cell emits from its front (or both sides when two-sided). A receiver
+                // in (or within rounding of) the cell's plane sees it edge-on: nothing.
+                let h = sp.n.dot(x - sp.p);
+                let margin = 4.0 * (ray_epsilon(x) + ray_epsilon(sp.p));
+                if h.abs() <= margin || (!sp.twosided && h < 0.0) {
                     continue;
                 }
                 let f = point_polygon_form_factor(x, n, &sp.poly[..sp.len as usize]);

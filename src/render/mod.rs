@@ -18,6 +18,7 @@ use rayon::prelude::*;
 
 use crate::accel::Accel;
 use crate::io::Image;
+use crate::radiosity::Solution;
 use crate::scene::Scene;
 use crate::stats::Counters;
 use crate::{Error, Result};
@@ -95,18 +96,27 @@ pub struct Output {
 }
 
 /// Renders one view of `scene`. `progress` (if given) advances by one per image row.
+/// `solution` is the radiosity solution, required by every method but `direct`.
 pub fn render(
     scene: &Scene,
     accel: &dyn Accel,
     settings: &Settings,
+    solution: Option<&Solution>,
     progress: Option<&ProgressBar>,
 ) -> Result<Output> {
-    if settings.method != Method::Direct {
-        return Err(Error::Usage(format!(
-            "--method {} needs the radiosity pass, which this version of radtrace does not have yet; use --method direct",
-            settings.method.name()
-        )));
-    }
+    let tracer = match (settings.method, solution) {
+        (Method::Direct, _) => Tracer::new(scene, accel, settings),
+        (Method::Twopass, Some(sol)) => Tracer::with_radiosity(scene, accel, settings, sol),
+        (Method::Twopass, None) => {
+            return Err(Error::Usage("--method twopass needs a radiosity solution".into()))
+        }
+        (m, _) => {
+            return Err(Error::Usage(format!(
+                "--method {} (source selection) is not available in this version of radtrace yet; use --method direct or twopass",
+                m.name()
+            )))
+        }
+    };
     let sensor = scene.sensors.get(settings.view).ok_or_else(|| {
         Error::Usage(format!(
             "--view {}: the scene {} has {} view(s) (0..{})",
@@ -118,7 +128,6 @@ pub fn render(
     })?;
     let (w, h) = (settings.width, settings.height);
     let camera = Camera::new(sensor, w, h);
-    let tracer = Tracer::new(scene, accel, settings);
 
     let start = Instant::now();
     let rows: Vec<(Vec<FilmSample>, Counters)> = (0..h)

@@ -5,6 +5,8 @@ use glam::{Vec2, Vec3};
 use super::lights::SampledLight;
 use super::{hash32, Settings};
 use crate::accel::{Accel, Hit, Ray};
+use crate::mesh::RadiosityMesh;
+use crate::radiosity::Solution;
 use crate::scene::{Bsdf, Rgb, Scene};
 use crate::stats::Counters;
 
@@ -86,6 +88,18 @@ pub fn ray_epsilon(p: Vec3) -> f32 {
     2e-5 * (1.0 + p.abs().max_element())
 }
 
+/// Where the light of diffuse surfaces comes from.
+enum Diffuse<'a> {
+    /// Shadow rays to every light source (`--method direct`).
+    Direct,
+    /// The radiosity solution alone, interpolated (`--method twopass`).
+    Radiosity {
+        mesh: &'a RadiosityMesh,
+        /// Total reflected radiosity per mesh vertex.
+        total: Vec<Rgb>,
+    },
+}
+
 /// Follows rays through a scene and returns the radiance they carry back.
 pub struct Tracer<'a> {
     scene: &'a Scene,
@@ -93,10 +107,12 @@ pub struct Tracer<'a> {
     lights: Vec<SampledLight>,
     area_samples: u32,
     max_depth: u32,
+    diffuse: Diffuse<'a>,
 }
 
 impl<'a> Tracer<'a> {
-    /// A tracer for `scene` with the sampling counts of `settings`.
+    /// A tracer for `scene` with the sampling counts of `settings` that computes
+    /// direct light with shadow rays.
     pub fn new(scene: &'a Scene, accel: &'a dyn Accel, settings: &Settings) -> Self {
         Tracer {
             scene,
@@ -104,7 +120,21 @@ impl<'a> Tracer<'a> {
             lights: SampledLight::prepare_all(scene),
             area_samples: settings.area_samples.max(1),
             max_depth: settings.max_depth,
+            diffuse: Diffuse::Direct,
         }
+    }
+
+    /// A tracer that shades diffuse surfaces from the radiosity `solution` alone
+    /// (the standard two-pass method, paper Fig. 7).
+    pub fn with_radiosity(
+        scene: &'a Scene,
+        accel: &'a dyn Accel,
+        settings: &Settings,
+        solution: &'a Solution,
+    ) -> Self {
+        let mut t = Self::new(scene, accel, settings);
+        t.diffuse = Diffuse::Radiosity { mesh: &solution.mesh, total: solution.total() };
+        t
     }
 
     /// Radiance arriving along `ray` (towards its origin). `depth` counts mirror
@@ -134,7 +164,13 @@ impl<'a> Tracer<'a> {
         }
         if bsdf.kind.has_diffuse() {
             counters.diffuse_hits += 1;
-            l += self.direct_light(&sp, bsdf, cos_v, seed, counters);
+            l += match &self.diffuse {
+                Diffuse::Direct => self.direct_light(&sp, bsdf, cos_v, seed, counters),
+                Diffuse::Radiosity { mesh, total } => {
+                    // Diffuse radiance L = B / pi, B interpolated from the mesh vertices.
+                    mesh.locate(self.scene, &hit, sp.p).apply(total) * std::f32::consts::FRAC_1_PI
+                }
+            };
         }
         if depth < self.max_depth {
             let m = bsdf.kind.mirror(cos_v);
