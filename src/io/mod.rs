@@ -4,6 +4,8 @@
 //! file beside the target, synced, and renamed over it, so an interrupted run never
 //! leaves a partial file and an existing output is only ever replaced by a complete one.
 
+pub mod solution;
+
 use std::fs::{self, File, OpenOptions};
 use std::io::{Cursor, Write};
 use std::panic::{catch_unwind, AssertUnwindSafe};
