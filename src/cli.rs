@@ -55,13 +55,13 @@ pub struct SceneArgs {
 pub struct SolveArgs {
     /// Largest radiosity element edge, in scene units [default: the scene's
     /// bounding-box diagonal / 40].
-    #[arg(long, value_name = "SIZE")]
+    #[arg(long, value_name = "SIZE", allow_negative_numbers = true)]
     mesh_size: Option<f32>,
     /// n: light sources kept apart, per patch, from the general radiosity.
     #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(0..=64))]
     sources_per_patch: u32,
     /// Sample cells per area light or shooting patch in each shot.
-    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=4096))]
     shoot_samples: u32,
     /// Stop when the unshot power falls below this fraction of the emitted power.
     #[arg(long, default_value_t = 0.01, value_name = "FRACTION")]
@@ -75,7 +75,11 @@ impl SolveArgs {
     fn settings(&self, scene: &Scene, seed: u64) -> Result<SolveSettings> {
         let mesh_size = match self.mesh_size {
             Some(m) if m.is_finite() && m > 0.0 => m,
-            Some(m) => return Err(Error::Usage(format!("--mesh-size {m}: must be a positive length"))),
+            Some(m) => {
+                return Err(Error::Usage(format!(
+                    "--mesh-size {m}: must be a positive length"
+                )))
+            }
             None => crate::mesh::default_mesh_size(scene),
         };
         if !(0.0..=1.0).contains(&self.solve_tolerance) {
@@ -425,7 +429,10 @@ fn cmd_solve(a: SolveCmdArgs) -> Result<()> {
                 "solve": solve_json(&sol),
                 "time_s": t.to_json(total.elapsed().as_secs_f64()),
             });
-            crate::io::write_atomic(path, (serde_json::to_string_pretty(&doc).expect("json") + "\n").as_bytes())?;
+            crate::io::write_atomic(
+                path,
+                (serde_json::to_string_pretty(&doc).expect("json") + "\n").as_bytes(),
+            )?;
         }
         if !a.quiet {
             eprintln!("radtrace: solution -> {}", a.output.display());

@@ -45,6 +45,8 @@ pub struct Grid {
     pub m: u32,
     /// Index of the grid's first vertex in [`RadiosityMesh::vertices`].
     pub first_vertex: u32,
+    /// Normals point the other way (the back twin of a two-sided patch).
+    pub flip: bool,
 }
 
 /// A radiosity patch: the unit that keeps a source list.
@@ -66,8 +68,10 @@ pub struct MeshPatch {
     pub area: f32,
     /// Diffuse reflectance used by the radiosity pass.
     pub reflectance: Rgb,
-    /// Receives and reflects on both sides.
-    pub twosided: bool,
+    /// For a patch with a two-sided material: its back twin (the same surface with
+    /// the normal reversed and vertices of its own), which holds the light on the
+    /// back side. Radiosity is one-sided: each side keeps its own values.
+    pub twin: Option<u32>,
 }
 
 /// A mesh vertex: where radiosity is computed.
@@ -99,6 +103,9 @@ pub struct RadiosityMesh {
     pub vertices: Vec<MeshVertex>,
     /// For each shape, the index of its first patch in `patches`.
     pub shape_first_patch: Vec<u32>,
+    /// Number of front patches: `patches[..front_patches]` follow the scene's shapes
+    /// and patches in order; the back twins of two-sided patches come after them.
+    pub front_patches: u32,
 }
 
 /// Vertex weights for interpolating at a point: up to four vertices.
@@ -166,6 +173,11 @@ impl Grid {
 
     /// Position and normal at parameters (s, t).
     fn eval(&self, s: f32, t: f32) -> (Vec3, Vec3) {
+        let (p, n) = self.eval_front(s, t);
+        (p, if self.flip { -n } else { n })
+    }
+
+    fn eval_front(&self, s: f32, t: f32) -> (Vec3, Vec3) {
         match &self.domain {
             Domain::Tri([a, b, c]) => {
                 let n = (*b - *a).cross(*c - *a).normalize_or(Vec3::Z);
@@ -337,6 +349,7 @@ impl RadiosityMesh {
             patches: Vec::new(),
             vertices: Vec::new(),
             shape_first_patch: Vec::with_capacity(scene.shapes.len()),
+            front_patches: 0,
         };
         for (si, shape) in scene.shapes.iter().enumerate() {
             mesh.shape_first_patch.push(mesh.patches.len() as u32);
@@ -375,6 +388,7 @@ impl RadiosityMesh {
                         n,
                         m,
                         first_vertex: mesh.vertices.len() as u32,
+                        flip: false,
                     };
                     let (verts, a) = grid_vertices(&grid, patch_index);
                     area += a;
@@ -391,9 +405,28 @@ impl RadiosityMesh {
                     element_count: elements,
                     area,
                     reflectance,
-                    twosided: bsdf.twosided,
+                    twin: None,
                 });
             }
+        }
+        mesh.front_patches = mesh.patches.len() as u32;
+        // Back twins of two-sided patches.
+        for p in 0..mesh.front_patches as usize {
+            let shape = &scene.shapes[mesh.patches[p].shape as usize];
+            if !scene.bsdfs[shape.bsdf as usize].twosided {
+                continue;
+            }
+            let twin_index = mesh.patches.len() as u32;
+            let mut twin = mesh.patches[p].clone();
+            twin.first_vertex = mesh.vertices.len() as u32;
+            for g in &mut twin.grids {
+                g.first_vertex = mesh.vertices.len() as u32;
+                g.flip = true;
+                let (verts, _) = grid_vertices(g, twin_index);
+                mesh.vertices.extend(verts);
+            }
+            mesh.patches[p].twin = Some(twin_index);
+            mesh.patches.push(twin);
         }
         mesh
     }
@@ -408,9 +441,14 @@ impl RadiosityMesh {
         self.shape_first_patch[shape as usize] + scene.shapes[shape as usize].mesh.tri_patch[tri as usize]
     }
 
-    /// Interpolation weights at a ray hit (its patch, element and corner weights).
-    pub fn locate(&self, scene: &Scene, hit: &Hit, p: Vec3) -> Interp {
-        let patch = &self.patches[self.patch_of(scene, hit.shape, hit.tri) as usize];
+    /// Interpolation weights at a ray hit (its patch, element and corner weights);
+    /// `front` tells which side was hit (the back of a two-sided patch has its own
+    /// values).
+    pub fn locate(&self, scene: &Scene, hit: &Hit, p: Vec3, front: bool) -> Interp {
+        let mut patch = &self.patches[self.patch_of(scene, hit.shape, hit.tri) as usize];
+        if let (false, Some(t)) = (front, patch.twin) {
+            patch = &self.patches[t as usize];
+        }
         let grid = match patch.grids.len() {
             1 => &patch.grids[0],
             _ => {
@@ -471,14 +509,23 @@ impl RadiosityMesh {
                         c0.1 + (c1.1 - c0.1) * b1 + (c2.1 - c0.1) * b2,
                     )
                 } else {
-                    (corners[0].0 + (corners[1].0 - corners[0].0) * r.x, corners[0].1 + (corners[3].1 - corners[0].1) * r.y)
+                    (
+                        corners[0].0 + (corners[1].0 - corners[0].0) * r.x,
+                        corners[0].1 + (corners[3].1 - corners[0].1) * r.y,
+                    )
                 };
                 let (pos, n) = grid.eval(s, t);
                 let mut poly = [Vec3::ZERO; 4];
                 for (c, &(cs, ct)) in corners.iter().enumerate() {
                     poly[c] = grid.eval(cs, ct).0;
                 }
-                out.push(ShootCell { corners: poly, len: corners.len() as u8, p: pos, n, interp: grid.interp(s, t) });
+                out.push(ShootCell {
+                    corners: poly,
+                    len: corners.len() as u8,
+                    p: pos,
+                    n,
+                    interp: grid.interp(s, t),
+                });
             };
             match grid.domain {
                 Domain::Tri(_) => {
@@ -500,7 +547,10 @@ impl RadiosityMesh {
                     let f = |i: u32, j: u32| (i as f32 / side as f32, j as f32 / side as f32);
                     for j in 0..side {
                         for i in 0..side {
-                            push(vec![f(i, j), f(i + 1, j), f(i + 1, j + 1), f(i, j + 1)], j * side + i);
+                            push(
+                                vec![f(i, j), f(i + 1, j), f(i + 1, j + 1), f(i, j + 1)],
+                                j * side + i,
+                            );
                         }
                     }
                 }
@@ -602,7 +652,13 @@ fn grid_vertices(grid: &Grid, patch: u32) -> (Vec<MeshVertex>, f32) {
                     let (a, b) = (i as f32 / k as f32, j as f32 / k as f32);
                     let (p, n) = grid.eval(a, b);
                     let (q, _) = grid.eval(a + (1.0 / 3.0 - a) * NUDGE, b + (1.0 / 3.0 - b) * NUDGE);
-                    verts.push(MeshVertex { p, n, q, area: 0.0, patch });
+                    verts.push(MeshVertex {
+                        p,
+                        n,
+                        q,
+                        area: 0.0,
+                        patch,
+                    });
                 }
             }
             let elem = 0.5 * grid.jacobian(0.0, 0.0) / (k * k) as f32;
@@ -636,7 +692,13 @@ fn grid_vertices(grid: &Grid, patch: u32) -> (Vec<MeshVertex>, f32) {
                     let (a, b) = (i as f32 / n as f32, j as f32 / m as f32);
                     let (p, nn) = grid.eval(a, b);
                     let (q, _) = grid.eval(a + (0.5 - a) * NUDGE, b + (0.5 - b) * NUDGE);
-                    verts.push(MeshVertex { p, n: nn, q, area: 0.0, patch });
+                    verts.push(MeshVertex {
+                        p,
+                        n: nn,
+                        q,
+                        area: 0.0,
+                        patch,
+                    });
                 }
             }
             for j in 0..m {
@@ -652,4 +714,117 @@ fn grid_vertices(grid: &Grid, patch: u32) -> (Vec<MeshVertex>, f32) {
         }
     }
     (verts, total)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::{Accel, Bvh, Ray};
+    use crate::testutil::{quad, scene};
+
+    fn tri_scene() -> Scene {
+        let v = Vec3::new;
+        let mut tri = quad([v(0., 0., 0.), v(2., 0., 0.), v(0., 2., 0.), v(0., 2., 0.)]);
+        tri.patches = vec![Patch::Polygon(vec![0, 1, 2])];
+        tri.indices = vec![[0, 1, 2]];
+        tri.tri_patch = vec![0];
+        let q = quad([v(0., 0., 1.), v(3., 0., 1.), v(3.5, 1., 1.), v(0., 1., 1.)]);
+        scene(vec![(tri, Vec3::ONE), (q, Vec3::ONE)], vec![], &[])
+    }
+
+    #[test]
+    fn elements_respect_the_mesh_size_and_vertex_areas_sum_to_the_patch_area() {
+        let s = tri_scene();
+        let m = RadiosityMesh::build(&s, 0.25);
+        assert_eq!(m.patches.len(), 2);
+        // Triangle: longest edge 2.83 -> 12 divisions -> 144 elements.
+        assert_eq!(m.patches[0].element_count, 144);
+        assert_eq!(m.patches[0].vertex_count, 13 * 14 / 2);
+        // Quad: 3.5 / 0.25 = 14 by 1.118 / 0.25 -> 5.
+        assert_eq!((m.patches[1].grids[0].n, m.patches[1].grids[0].m), (14, 5));
+        for p in &m.patches {
+            let vs = &m.vertices[p.first_vertex as usize..(p.first_vertex + p.vertex_count) as usize];
+            let sum: f32 = vs.iter().map(|v| v.area).sum();
+            assert!((sum - p.area).abs() < 1e-4 * p.area, "{sum} vs {}", p.area);
+        }
+        assert!((m.patches[0].area - 2.0).abs() < 1e-5);
+        assert!((m.patches[1].area - 3.25).abs() < 1e-4);
+    }
+
+    /// Gouraud interpolation of a linear function of position is exact, at any hit.
+    #[test]
+    fn locate_interpolates_linear_functions_exactly() {
+        let s = tri_scene();
+        let m = RadiosityMesh::build(&s, 0.3);
+        let f = |p: Vec3| Vec3::new(1.0 + 2.0 * p.x - p.y, 0.5 * p.x + 3.0 * p.y, 2.0);
+        let values: Vec<Rgb> = m.vertices.iter().map(|v| f(v.p)).collect();
+        let bvh = Bvh::build(&s);
+        let mut hits = 0;
+        for (k, (x, y)) in [
+            (0.3f32, 0.2f32),
+            (1.2, 0.7),
+            (0.05, 1.9),
+            (2.9, 0.5),
+            (3.3, 0.9),
+            (1.7, 0.1),
+        ]
+        .iter()
+        .enumerate()
+        {
+            for z in [0.5f32, 2.0] {
+                let ray = Ray::new(Vec3::new(*x, *y, z), -Vec3::Z);
+                let Some(hit) = bvh.intersect(&ray) else { continue };
+                let p = ray.at(hit.t);
+                let got = m.locate(&s, &hit, p, true).apply(&values);
+                assert!(
+                    (got - f(p)).abs().max_element() < 1e-3,
+                    "case {k}: {got} vs {}",
+                    f(p)
+                );
+                hits += 1;
+            }
+        }
+        assert_eq!(hits, 10, "rays that hit the triangle or the quad");
+    }
+
+    #[test]
+    fn shoot_cells_tile_the_patch() {
+        let s = tri_scene();
+        let m = RadiosityMesh::build(&s, 0.3);
+        for p in 0..2 {
+            let cells = m.shoot_cells(p, 16, |_| Vec2::splat(0.5));
+            let area: f32 = cells
+                .iter()
+                .map(|c| {
+                    let q = c.polygon();
+                    (1..q.len() - 1)
+                        .map(|k| 0.5 * (q[k] - q[0]).cross(q[k + 1] - q[0]).length())
+                        .sum::<f32>()
+                })
+                .sum();
+            assert!(
+                (area - m.patches[p as usize].area).abs() < 1e-3,
+                "patch {p}: {area}"
+            );
+            assert!(cells.len() >= 9 && cells.len() <= 16, "{}", cells.len());
+        }
+    }
+
+    #[test]
+    fn twosided_patches_get_a_back_twin_with_its_own_vertices() {
+        let mut s = tri_scene();
+        s.bsdfs[1].twosided = true;
+        let m = RadiosityMesh::build(&s, 0.5);
+        assert_eq!(m.front_patches, 2);
+        assert_eq!(m.patches.len(), 3);
+        let twin = &m.patches[m.patches[1].twin.unwrap() as usize];
+        let front = &m.patches[1];
+        assert_eq!(twin.vertex_count, front.vertex_count);
+        let (a, b) = (
+            &m.vertices[front.first_vertex as usize],
+            &m.vertices[twin.first_vertex as usize],
+        );
+        assert_eq!(a.p, b.p);
+        assert_eq!(a.n, -b.n);
+    }
 }

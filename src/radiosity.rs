@@ -129,16 +129,27 @@ struct ShootPoint {
     len: u8,
     /// Radiosity the cell emits (for point lights: the intensity).
     radiosity: Rgb,
-    twosided: bool,
 }
 
 impl ShootPoint {
-    fn from_cell(c: &crate::mesh::ShootCell, radiosity: Rgb, twosided: bool) -> Self {
-        ShootPoint { p: c.p, n: c.n, poly: c.corners, len: c.len, radiosity, twosided }
+    fn from_cell(c: &crate::mesh::ShootCell, radiosity: Rgb) -> Self {
+        ShootPoint {
+            p: c.p,
+            n: c.n,
+            poly: c.corners,
+            len: c.len,
+            radiosity,
+        }
     }
 
     fn point(p: Vec3, intensity: Rgb) -> Self {
-        ShootPoint { p, n: Vec3::ZERO, poly: [Vec3::ZERO; 4], len: 0, radiosity: intensity, twosided: false }
+        ShootPoint {
+            p,
+            n: Vec3::ZERO,
+            poly: [Vec3::ZERO; 4],
+            len: 0,
+            radiosity: intensity,
+        }
     }
 }
 
@@ -296,9 +307,19 @@ pub(crate) fn solve_traced(
         }
     }
     s.stats.time_s = start.elapsed().as_secs_f64();
-    let solution = Solution { mesh: s.mesh, settings: *settings, general: s.general, lists: s.lists, stats: s.stats };
+    let solution = Solution {
+        mesh: s.mesh,
+        settings: *settings,
+        general: s.general,
+        lists: s.lists,
+        stats: s.stats,
+    };
     (solution, s.folded)
 }
+
+/// What one patch received from a shot: occluded and unoccluded radiosity per
+/// vertex, and the rays cast.
+type Received = (Vec<Rgb>, Vec<Rgb>, u64);
 
 struct Solver<'a> {
     scene: &'a Scene,
@@ -333,7 +354,9 @@ impl Solver<'_> {
     fn light_points(&self, l: u32) -> Vec<ShootPoint> {
         match self.scene.lights[l as usize] {
             Light::Point { position, intensity } => vec![ShootPoint::point(position, intensity)],
-            Light::Spot { position, intensity, .. } => vec![ShootPoint::point(position, intensity)],
+            Light::Spot {
+                position, intensity, ..
+            } => vec![ShootPoint::point(position, intensity)],
             Light::Area { shape, radiance } => {
                 let first = self.mesh.shape_first_patch[shape as usize] as usize;
                 let last = self
@@ -341,7 +364,7 @@ impl Solver<'_> {
                     .shape_first_patch
                     .get(shape as usize + 1)
                     .map(|&x| x as usize)
-                    .unwrap_or(self.mesh.patches.len());
+                    .unwrap_or(self.mesh.front_patches as usize);
                 let area: f32 = self.mesh.patches[first..last].iter().map(|p| p.area).sum();
                 let jitter = self.jitter(u64::from(l) << 32);
                 let mut pts = Vec::new();
@@ -349,8 +372,11 @@ impl Solver<'_> {
                     let share = self.mesh.patches[p].area / area;
                     let k = ((self.settings.shoot_samples as f32 * share).round() as u32).max(1);
                     let base = (p - first) as u32 * 1_000_003;
-                    for c in self.mesh.shoot_cells(p as u32, k, |i| jitter(base.wrapping_add(i))) {
-                        pts.push(ShootPoint::from_cell(&c, radiance * std::f32::consts::PI, false));
+                    for c in self
+                        .mesh
+                        .shoot_cells(p as u32, k, |i| jitter(base.wrapping_add(i)))
+                    {
+                        pts.push(ShootPoint::from_cell(&c, radiance * std::f32::consts::PI));
                     }
                 }
                 pts
@@ -361,23 +387,16 @@ impl Solver<'_> {
     /// Shooting cells of patch `p`, carrying its unshot radiosity.
     fn patch_points(&self, p: u32) -> Vec<ShootPoint> {
         let jitter = self.jitter(self.stats.patch_shots + 1);
-        let twosided = self.mesh.patches[p as usize].twosided;
         self.mesh
             .shoot_cells(p, self.settings.shoot_samples, jitter)
             .iter()
-            .map(|c| ShootPoint::from_cell(c, c.interp.apply(&self.unshot), twosided))
+            .map(|c| ShootPoint::from_cell(c, c.interp.apply(&self.unshot)))
             .filter(|sp| sp.radiosity.max_element() > 0.0)
             .collect()
     }
 
     /// Light from `points` at vertex `v`: (occluded, unoccluded) irradiance and rays.
-    fn gather(
-        &self,
-        points: &[ShootPoint],
-        v: &MeshVertex,
-        twosided: bool,
-        light: Option<&SampledLight>,
-    ) -> (Rgb, Rgb, u64) {
+    fn gather(&self, points: &[ShootPoint], v: &MeshVertex, light: Option<&SampledLight>) -> (Rgb, Rgb, u64) {
         let mut occ = Vec3::ZERO;
         let mut unocc = Vec3::ZERO;
         let mut rays = 0;
@@ -390,8 +409,9 @@ impl Solver<'_> {
             }
             let r = r2.sqrt();
             let dir = d / r;
-            // The receiving side: the front, or for two-sided surfaces the side facing the source.
-            let n = if twosided && v.n.dot(dir) < 0.0 { -v.n } else { v.n };
+            // Radiosity is one-sided: a vertex receives on its front (two-sided
+            // surfaces have a back twin with the reversed normal).
+            let n = v.n;
             let e = if let Some(l) = light {
                 // Point or spot light: I * falloff / r^2 * cos.
                 let cos_v = n.dot(dir);
@@ -403,11 +423,11 @@ impl Solver<'_> {
                     None => continue,
                 }
             } else {
-                // The cell emits from its front (or both sides when two-sided). A receiver
-                // in (or within rounding of) the cell's plane sees it edge-on: nothing.
+                // The cell emits from its front. A receiver in (or within rounding of)
+                // the cell's plane sees it edge-on: nothing.
                 let h = sp.n.dot(x - sp.p);
                 let margin = 4.0 * (ray_epsilon(x) + ray_epsilon(sp.p));
-                if h.abs() <= margin || (!sp.twosided && h < 0.0) {
+                if h <= margin {
                     continue;
                 }
                 let f = point_polygon_form_factor(x, n, &sp.poly[..sp.len as usize]);
@@ -421,8 +441,17 @@ impl Solver<'_> {
             let side = if n.dot(dir) >= 0.0 { n } else { -n };
             let eps = ray_epsilon(x);
             let origin = x + side * eps;
-            let tmax = if light.is_some() { r - eps } else { r - 2.0 * ray_epsilon(sp.p) - eps };
-            let ray = Ray { origin, dir, tmin: 0.0, tmax: tmax.max(0.0) };
+            let tmax = if light.is_some() {
+                r - eps
+            } else {
+                r - 2.0 * ray_epsilon(sp.p) - eps
+            };
+            let ray = Ray {
+                origin,
+                dir,
+                tmin: 0.0,
+                tmax: tmax.max(0.0),
+            };
             if !self.accel.occluded(&ray) {
                 occ += e;
             }
@@ -452,7 +481,7 @@ impl Solver<'_> {
         };
         // Per patch, in parallel: received light at its vertices.
         let mesh = &self.mesh;
-        let results: Vec<Option<(Vec<Rgb>, Vec<Rgb>, u64)>> = (0..mesh.patches.len())
+        let results: Vec<Option<Received>> = (0..mesh.patches.len())
             .into_par_iter()
             .map(|p| {
                 let patch = &mesh.patches[p];
@@ -464,7 +493,7 @@ impl Solver<'_> {
                 let mut unocc = Vec::with_capacity(patch.vertex_count as usize);
                 let mut rays = 0;
                 for v in &mesh.vertices[first..first + patch.vertex_count as usize] {
-                    let (o, u, r) = self.gather(points, v, patch.twosided, sampled.as_ref());
+                    let (o, u, r) = self.gather(points, v, sampled.as_ref());
                     occ.push(o * patch.reflectance);
                     unocc.push(u * patch.reflectance);
                     rays += r;
@@ -517,13 +546,26 @@ impl Solver<'_> {
         }
         if !folded.contains(&source) {
             if list.len() < n {
-                list.push(ListEntry { source, occluded: occ, unoccluded: unocc, power });
+                list.push(ListEntry {
+                    source,
+                    occluded: occ,
+                    unoccluded: unocc,
+                    power,
+                });
                 return;
             }
-            let weakest = list.iter().enumerate().min_by(|a, b| a.1.power.total_cmp(&b.1.power));
+            let weakest = list
+                .iter()
+                .enumerate()
+                .min_by(|a, b| a.1.power.total_cmp(&b.1.power));
             if let Some((i, e)) = weakest {
                 if power > e.power {
-                    let entry = ListEntry { source, occluded: occ, unoccluded: unocc, power };
+                    let entry = ListEntry {
+                        source,
+                        occluded: occ,
+                        unoccluded: unocc,
+                        power,
+                    };
                     let old = std::mem::replace(&mut list[i], entry);
                     fold(general, &old.occluded);
                     folded.insert(old.source);
@@ -606,7 +648,11 @@ mod tests {
         let e = 1.0;
         let faces = box_inside(Vec3::ZERO, Vec3::ONE);
         let emitters: Vec<(usize, Rgb)> = (0..6).map(|i| (i, Vec3::splat(e / PI))).collect();
-        let s = scene(faces.into_iter().map(|f| (f, Vec3::splat(rho))).collect(), vec![], &emitters);
+        let s = scene(
+            faces.into_iter().map(|f| (f, Vec3::splat(rho))).collect(),
+            vec![],
+            &emitters,
+        );
         let mut st = settings(0.1, 64, 2000);
         st.tolerance = 1e-3;
         let sol = solve(&s, &Bvh::build(&s), &st, None);
@@ -624,8 +670,15 @@ mod tests {
     fn energy_is_conserved_in_a_closed_box() {
         let rho = 0.6;
         let faces = box_inside(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.5));
-        let light = Light::Point { position: Vec3::new(0.7, 0.6, 0.5), intensity: Vec3::splat(3.0) };
-        let s = scene(faces.into_iter().map(|f| (f, Vec3::splat(rho))).collect(), vec![light], &[]);
+        let light = Light::Point {
+            position: Vec3::new(0.7, 0.6, 0.5),
+            intensity: Vec3::splat(3.0),
+        };
+        let s = scene(
+            faces.into_iter().map(|f| (f, Vec3::splat(rho))).collect(),
+            vec![light],
+            &[],
+        );
         let mut st = settings(0.1, 32, 300);
         st.tolerance = 0.02;
         let sol = solve(&s, &Bvh::build(&s), &st, None);
@@ -640,7 +693,10 @@ mod tests {
         let unshot = sol.stats.residual * sol.stats.emitted_power;
         let emitted = sol.stats.emitted_power;
         assert!((emitted - 4.0 * std::f64::consts::PI * 3.0).abs() < 1e-3);
-        assert!(((absorbed + unshot) - emitted).abs() < 0.015 * emitted, "{absorbed} + {unshot} vs {emitted}");
+        assert!(
+            ((absorbed + unshot) - emitted).abs() < 0.015 * emitted,
+            "{absorbed} + {unshot} vs {emitted}"
+        );
     }
 
     /// Keeping sources apart changes where light is stored, never how much.
@@ -651,10 +707,24 @@ mod tests {
             faces.into_iter().map(|f| (f, Vec3::new(0.7, 0.5, 0.3))).collect();
         // An occluder, so that some contributions are partly shadowed.
         let v = Vec3::new;
-        shapes.push((quad([v(0.8, 0.2, 0.7), v(1.2, 0.2, 0.7), v(1.2, 0.2, 1.1), v(0.8, 0.2, 1.1)]), Vec3::splat(0.5)));
+        shapes.push((
+            quad([
+                v(0.8, 0.2, 0.7),
+                v(1.2, 0.2, 0.7),
+                v(1.2, 0.2, 1.1),
+                v(0.8, 0.2, 1.1),
+            ]),
+            Vec3::splat(0.5),
+        ));
         let lights = vec![
-            Light::Point { position: v(0.5, 0.8, 0.7), intensity: Vec3::splat(2.0) },
-            Light::Point { position: v(1.6, 0.5, 0.3), intensity: v(1.0, 2.0, 3.0) },
+            Light::Point {
+                position: v(0.5, 0.8, 0.7),
+                intensity: Vec3::splat(2.0),
+            },
+            Light::Point {
+                position: v(1.6, 0.5, 0.3),
+                intensity: v(1.0, 2.0, 3.0),
+            },
         ];
         let s = scene(shapes, lights, &[]);
         let bvh = Bvh::build(&s);
@@ -664,15 +734,25 @@ mod tests {
         assert!(plain.lists.iter().all(|l| l.is_empty()));
         st.sources_per_patch = 2;
         let (sep, folded) = solve_traced(&s, &bvh, &st, None);
-        assert!(sep.lists.iter().any(|l| l.len() == 2), "some patch keeps two sources");
+        assert!(
+            sep.lists.iter().any(|l| l.len() == 2),
+            "some patch keeps two sources"
+        );
         let (a, b) = (plain.total(), sep.total());
         for (x, y) in a.iter().zip(&b) {
-            assert!((*x - *y).abs().max_element() <= 1e-4 * (1.0 + x.max_element()), "{x} vs {y}");
+            assert!(
+                (*x - *y).abs().max_element() <= 1e-4 * (1.0 + x.max_element()),
+                "{x} vs {y}"
+            );
         }
         // One route per source: nothing listed on a patch was folded into its general term.
         for (p, list) in sep.lists.iter().enumerate() {
             for e in list {
-                assert!(!folded[p].contains(&e.source), "patch {p}: {:?} listed and folded", e.source);
+                assert!(
+                    !folded[p].contains(&e.source),
+                    "patch {p}: {:?} listed and folded",
+                    e.source
+                );
             }
             assert!(list.len() <= 2);
         }
@@ -687,12 +767,23 @@ mod tests {
     #[test]
     fn same_seed_same_solution() {
         let faces = box_inside(Vec3::ZERO, Vec3::ONE);
-        let light = Light::Point { position: Vec3::splat(0.5), intensity: Vec3::ONE };
-        let s = scene(faces.into_iter().map(|f| (f, Vec3::splat(0.5))).collect(), vec![light], &[]);
+        let light = Light::Point {
+            position: Vec3::splat(0.5),
+            intensity: Vec3::ONE,
+        };
+        let s = scene(
+            faces.into_iter().map(|f| (f, Vec3::splat(0.5))).collect(),
+            vec![light],
+            &[],
+        );
         let bvh = Bvh::build(&s);
         let st = settings(0.25, 8, 30);
         let a = solve(&s, &bvh, &st, None);
-        let b = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| solve(&s, &bvh, &st, None));
+        let b = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(|| solve(&s, &bvh, &st, None));
         assert_eq!(a.general, b.general);
         assert_eq!(a.lists, b.lists);
     }

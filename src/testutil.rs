@@ -18,9 +18,7 @@ pub fn quad(c: [Vec3; 4]) -> TriMesh {
 
 /// The six faces of the box `[lo, hi]`, facing inwards.
 pub fn box_inside(lo: Vec3, hi: Vec3) -> Vec<TriMesh> {
-    let p = |x: usize, y: usize, z: usize| {
-        Vec3::new([lo.x, hi.x][x], [lo.y, hi.y][y], [lo.z, hi.z][z])
-    };
+    let p = |x: usize, y: usize, z: usize| Vec3::new([lo.x, hi.x][x], [lo.y, hi.y][y], [lo.z, hi.z][z]);
     vec![
         quad([p(0, 0, 0), p(1, 0, 0), p(1, 1, 0), p(0, 1, 0)]), // z = lo, facing +z
         quad([p(0, 0, 1), p(0, 1, 1), p(1, 1, 1), p(1, 0, 1)]), // z = hi, facing -z
@@ -34,14 +32,32 @@ pub fn box_inside(lo: Vec3, hi: Vec3) -> Vec<TriMesh> {
 /// A scene of diffuse shapes (mesh, reflectance) and lights; `emitters` lists
 /// (shape, radiance) pairs made area lights.
 pub fn scene(shapes: Vec<(TriMesh, Rgb)>, mut lights: Vec<Light>, emitters: &[(usize, Rgb)]) -> Scene {
-    let mut s = Scene { path: "test.xml".into(), shapes: vec![], bsdfs: vec![], lights: vec![], sensors: vec![] };
+    let mut s = Scene {
+        path: "test.xml".into(),
+        shapes: vec![],
+        bsdfs: vec![],
+        lights: vec![],
+        sensors: vec![],
+    };
     for (i, (mesh, rho)) in shapes.into_iter().enumerate() {
-        s.bsdfs.push(Bsdf { name: format!("b{i}"), kind: BsdfKind::Diffuse { reflectance: rho }, twosided: false });
-        s.shapes.push(Shape { name: format!("s{i}"), mesh, bsdf: i as u32, emitter: None });
+        s.bsdfs.push(Bsdf {
+            name: format!("b{i}"),
+            kind: BsdfKind::Diffuse { reflectance: rho },
+            twosided: false,
+        });
+        s.shapes.push(Shape {
+            name: format!("s{i}"),
+            mesh,
+            bsdf: i as u32,
+            emitter: None,
+        });
     }
     for &(shape, radiance) in emitters {
         s.shapes[shape].emitter = Some(lights.len() as u32);
-        lights.push(Light::Area { shape: shape as u32, radiance });
+        lights.push(Light::Area {
+            shape: shape as u32,
+            radiance,
+        });
     }
     s.lights = lights;
     s

@@ -660,9 +660,10 @@ mod tests {
         let (scene, sol) = solved();
         // 6 walls of 2x2 at mesh size 0.5: 4x4 quads, 25 vertices each; the table
         // (0.6 wide) 2x2 quads, 9 vertices.
-        assert_eq!(sol.mesh.patches.len(), 7);
-        assert_eq!(sol.mesh.vertices.len(), 6 * 25 + 9);
-        assert_eq!(sol.general.len(), 159);
+        // The table is two-sided, so it has a back twin with 9 more vertices.
+        assert_eq!(sol.mesh.patches.len(), 8);
+        assert_eq!(sol.mesh.vertices.len(), 6 * 25 + 9 + 9);
+        assert_eq!(sol.general.len(), 168);
         assert_eq!(sol.stats.light_shots, 1);
         assert!(sol.stats.patch_shots > 0);
         assert!(sol.lists.iter().all(|l| !l.is_empty() && l.len() <= 2));
@@ -706,7 +707,7 @@ mod tests {
         assert_eq!(&bytes[42..46], &0.5f32.to_le_bytes());
         assert_eq!(&bytes[46..50], &2u32.to_le_bytes());
         // ...followed (after the 28 bytes of settings) by the vertex count of general.
-        assert_eq!(&bytes[70..78], &159u64.to_le_bytes());
+        assert_eq!(&bytes[70..78], &168u64.to_le_bytes());
 
         // Saving again replaces the file with the same bytes (deterministic).
         save(sol, scene, &path).unwrap();
@@ -932,10 +933,10 @@ mod tests {
         let msg = load_err(
             dir.path(),
             "finer.rts",
-            &forged(&payload(&finer, g, l, ss, 159, counts(sol))),
+            &forged(&payload(&finer, g, l, ss, 168, counts(sol))),
         );
         assert!(
-            msg.contains("was computed on another radiosity mesh (159 vertices in 7 patches; this radtrace makes 502 vertices in 7 patches at mesh size 0.25)") &&
+            msg.contains("was computed on another radiosity mesh (168 vertices in 8 patches; this radtrace makes 518 vertices in 8 patches at mesh size 0.25)") &&
             msg.contains("run `radtrace solve` again"),
             "{msg}"
         );
@@ -953,20 +954,20 @@ mod tests {
         let msg = load_err(
             dir.path(),
             "shifted.rts",
-            &forged(&payload(st, g, &lists, ss, 159, c)),
+            &forged(&payload(st, g, &lists, ss, 168, c)),
         );
         assert!(msg.contains("another radiosity mesh"), "{msg}");
         // The values do not fit the counts the file itself gives.
         let msg = load_err(
             dir.path(),
             "short.rts",
-            &forged(&payload(st, &g[1..], l, ss, 159, counts(sol))),
+            &forged(&payload(st, &g[1..], l, ss, 168, counts(sol))),
         );
         assert!(msg.contains("damaged: the radiosity values do not fit"), "{msg}");
         let msg = load_err(
             dir.path(),
             "lists.rts",
-            &forged(&payload(st, g, &l[1..], ss, 159, counts(sol))),
+            &forged(&payload(st, g, &l[1..], ss, 168, counts(sol))),
         );
         assert!(msg.contains("damaged: the radiosity values do not fit"), "{msg}");
     }
@@ -981,7 +982,7 @@ mod tests {
         let msg = load_err(
             dir.path(),
             "nan.rts",
-            &forged(&payload(st, &nan, l, ss, 159, counts(sol))),
+            &forged(&payload(st, &nan, l, ss, 168, counts(sol))),
         );
         assert!(
             msg.ends_with("damaged: a non-finite general radiosity at vertex 17"),
@@ -992,7 +993,7 @@ mod tests {
         let msg = load_err(
             dir.path(),
             "inf.rts",
-            &forged(&payload(st, g, &inf, ss, 159, counts(sol))),
+            &forged(&payload(st, g, &inf, ss, 168, counts(sol))),
         );
         assert!(
             msg.ends_with("damaged: a non-finite value in the source list of patch 3"),
@@ -1005,7 +1006,7 @@ mod tests {
         let msg = load_err(
             dir.path(),
             "stats.rts",
-            &forged(&payload(st, g, l, &stats, 159, counts(sol))),
+            &forged(&payload(st, g, l, &stats, 168, counts(sol))),
         );
         assert!(msg.contains("damaged: a non-finite statistic"), "{msg}");
         for size in [0.0, -0.5, f32::NAN, f32::INFINITY] {
@@ -1016,7 +1017,7 @@ mod tests {
             let msg = load_err(
                 dir.path(),
                 "size.rts",
-                &forged(&payload(&s, g, l, ss, 159, counts(sol))),
+                &forged(&payload(&s, g, l, ss, 168, counts(sol))),
             );
             assert!(msg.contains("damaged: invalid mesh size"), "{msg}");
         }
@@ -1025,21 +1026,21 @@ mod tests {
         let msg = load_err(
             dir.path(),
             "light.rts",
-            &forged(&payload(st, g, &src, ss, 159, counts(sol))),
+            &forged(&payload(st, g, &src, ss, 168, counts(sol))),
         );
         assert!(
             msg.contains("the source list of patch 5 names a source the scene does not have"),
             "{msg}"
         );
-        src[5][0].source = SourceId::Patch(7);
+        src[5][0].source = SourceId::Patch(8);
         let msg = load_err(
             dir.path(),
             "patch.rts",
-            &forged(&payload(st, g, &src, ss, 159, counts(sol))),
+            &forged(&payload(st, g, &src, ss, 168, counts(sol))),
         );
         assert!(msg.contains("patch 5 names a source"), "{msg}");
         // Trailing bytes inside the payload, and a payload cut short.
-        let mut p = payload(st, g, l, ss, 159, counts(sol));
+        let mut p = payload(st, g, l, ss, 168, counts(sol));
         p.push(0);
         let msg = load_err(dir.path(), "trail.rts", &forged(&p));
         assert!(msg.contains("damaged: cannot decode"), "{msg}");

@@ -133,7 +133,10 @@ impl<'a> Tracer<'a> {
         solution: &'a Solution,
     ) -> Self {
         let mut t = Self::new(scene, accel, settings);
-        t.diffuse = Diffuse::Radiosity { mesh: &solution.mesh, total: solution.total() };
+        t.diffuse = Diffuse::Radiosity {
+            mesh: &solution.mesh,
+            total: solution.total(),
+        };
         t
     }
 
@@ -168,7 +171,7 @@ impl<'a> Tracer<'a> {
                 Diffuse::Direct => self.direct_light(&sp, bsdf, cos_v, seed, counters),
                 Diffuse::Radiosity { mesh, total } => {
                     // Diffuse radiance L = B / pi, B interpolated from the mesh vertices.
-                    mesh.locate(self.scene, &hit, sp.p).apply(total) * std::f32::consts::FRAC_1_PI
+                    mesh.locate(self.scene, &hit, sp.p, sp.front).apply(total) * std::f32::consts::FRAC_1_PI
                 }
             };
         }
