@@ -31,7 +31,21 @@ pub fn box_inside(lo: Vec3, hi: Vec3) -> Vec<TriMesh> {
 
 /// A scene of diffuse shapes (mesh, reflectance) and lights; `emitters` lists
 /// (shape, radiance) pairs made area lights.
-pub fn scene(shapes: Vec<(TriMesh, Rgb)>, mut lights: Vec<Light>, emitters: &[(usize, Rgb)]) -> Scene {
+pub fn scene(shapes: Vec<(TriMesh, Rgb)>, lights: Vec<Light>, emitters: &[(usize, Rgb)]) -> Scene {
+    let shapes = shapes
+        .into_iter()
+        .map(|(m, rho)| (m, BsdfKind::Diffuse { reflectance: rho }))
+        .collect();
+    scene_with(shapes, lights, emitters)
+}
+
+/// A scene of shapes with one-sided materials of the given kinds, and lights;
+/// `emitters` lists (shape, radiance) pairs made area lights.
+pub fn scene_with(
+    shapes: Vec<(TriMesh, BsdfKind)>,
+    mut lights: Vec<Light>,
+    emitters: &[(usize, Rgb)],
+) -> Scene {
     let mut s = Scene {
         path: "test.xml".into(),
         shapes: vec![],
@@ -39,10 +53,10 @@ pub fn scene(shapes: Vec<(TriMesh, Rgb)>, mut lights: Vec<Light>, emitters: &[(u
         lights: vec![],
         sensors: vec![],
     };
-    for (i, (mesh, rho)) in shapes.into_iter().enumerate() {
+    for (i, (mesh, kind)) in shapes.into_iter().enumerate() {
         s.bsdfs.push(Bsdf {
             name: format!("b{i}"),
-            kind: BsdfKind::Diffuse { reflectance: rho },
+            kind,
             twosided: false,
         });
         s.shapes.push(Shape {

@@ -237,7 +237,7 @@ mod tests {
     use crate::accel::Bvh;
     use crate::geometry::{Patch, TriMesh};
     use crate::render::{Filter, Method};
-    use crate::scene::{BsdfKind, Light, Scene, Shape};
+    use crate::scene::{BsdfKind, Light, Scene};
     use std::f32::consts::PI;
 
     /// A square `[-s,s]^2` at height z, facing +z (or -z when `down`).
@@ -279,27 +279,7 @@ mod tests {
     }
 
     fn scene(shapes: Vec<(TriMesh, BsdfKind)>, lights: Vec<Light>) -> Scene {
-        let mut s = Scene {
-            path: "test.xml".into(),
-            shapes: vec![],
-            bsdfs: vec![],
-            lights,
-            sensors: vec![],
-        };
-        for (i, (mesh, kind)) in shapes.into_iter().enumerate() {
-            s.bsdfs.push(crate::scene::Bsdf {
-                name: format!("b{i}"),
-                kind,
-                twosided: false,
-            });
-            s.shapes.push(Shape {
-                name: format!("s{i}"),
-                mesh,
-                bsdf: i as u32,
-                emitter: None,
-            });
-        }
-        s
+        crate::testutil::scene_with(shapes, lights, &[])
     }
 
     fn settings(area_samples: u32) -> Settings {
