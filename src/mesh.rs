@@ -148,6 +148,31 @@ pub fn default_mesh_size(scene: &Scene) -> f32 {
     }
 }
 
+/// The parameter domains a scene patch is meshed over: a triangle, a quadrilateral,
+/// a fan of triangles for larger polygons, or a piece of a Bezier patch.
+fn patch_domains(mesh: &crate::geometry::TriMesh, patch: &Patch) -> Vec<Domain> {
+    match patch {
+        Patch::Polygon(idx) => {
+            let pts: Vec<Vec3> = idx.iter().map(|&i| mesh.positions[i as usize]).collect();
+            match pts.len() {
+                0..=2 => vec![],
+                3 => vec![Domain::Tri([pts[0], pts[1], pts[2]])],
+                4 => vec![Domain::Quad([pts[0], pts[1], pts[2], pts[3]])],
+                _ => (1..pts.len() - 1)
+                    .map(|k| Domain::Tri([pts[0], pts[k], pts[k + 1]]))
+                    .collect(),
+            }
+        }
+        Patch::Bezier { surface, u, v } => {
+            vec![Domain::Bezier {
+                surface: mesh.bezier[*surface as usize],
+                u: *u,
+                v: *v,
+            }]
+        }
+    }
+}
+
 /// Subdivisions for a length: at least 1, at most 256.
 fn divisions(len: f32, size: f32) -> u32 {
     if !(len > 0.0) || !(size > 0.0) {
@@ -356,26 +381,7 @@ impl RadiosityMesh {
             let bsdf = &scene.bsdfs[shape.bsdf as usize];
             let reflectance = bsdf.kind.diffuse_albedo();
             for (pi, patch) in shape.mesh.patches.iter().enumerate() {
-                let domains: Vec<Domain> = match patch {
-                    Patch::Polygon(idx) => {
-                        let pts: Vec<Vec3> = idx.iter().map(|&i| shape.mesh.positions[i as usize]).collect();
-                        match pts.len() {
-                            0..=2 => vec![],
-                            3 => vec![Domain::Tri([pts[0], pts[1], pts[2]])],
-                            4 => vec![Domain::Quad([pts[0], pts[1], pts[2], pts[3]])],
-                            _ => (1..pts.len() - 1)
-                                .map(|k| Domain::Tri([pts[0], pts[k], pts[k + 1]]))
-                                .collect(),
-                        }
-                    }
-                    Patch::Bezier { surface, u, v } => {
-                        vec![Domain::Bezier {
-                            surface: shape.mesh.bezier[*surface as usize],
-                            u: *u,
-                            v: *v,
-                        }]
-                    }
-                };
+                let domains = patch_domains(&shape.mesh, patch);
                 let first_vertex = mesh.vertices.len() as u32;
                 let patch_index = mesh.patches.len() as u32;
                 let mut grids = Vec::with_capacity(domains.len());
@@ -429,6 +435,34 @@ impl RadiosityMesh {
             mesh.patches.push(twin);
         }
         mesh
+    }
+
+    /// The number of vertices [`RadiosityMesh::build`] would make, without making
+    /// them (cheap: used to refuse a solution file before building its mesh).
+    pub fn count_vertices(scene: &Scene, mesh_size: f32) -> u64 {
+        let mut total = 0u64;
+        for shape in &scene.shapes {
+            let sides = if scene.bsdfs[shape.bsdf as usize].twosided {
+                2
+            } else {
+                1
+            };
+            for patch in &shape.mesh.patches {
+                let domains = patch_domains(&shape.mesh, patch);
+                for d in domains {
+                    let (n, m) = grid_size(&d, mesh_size);
+                    let g = Grid {
+                        domain: d,
+                        n,
+                        m,
+                        first_vertex: 0,
+                        flip: false,
+                    };
+                    total += sides * u64::from(g.vertex_count());
+                }
+            }
+        }
+        total
     }
 
     /// Number of elements.
@@ -826,5 +860,15 @@ mod tests {
         );
         assert_eq!(a.p, b.p);
         assert_eq!(a.n, -b.n);
+    }
+
+    #[test]
+    fn count_vertices_agrees_with_build() {
+        let mut s = tri_scene();
+        s.bsdfs[1].twosided = true;
+        for size in [0.07f32, 0.3, 2.0] {
+            let m = RadiosityMesh::build(&s, size);
+            assert_eq!(RadiosityMesh::count_vertices(&s, size), m.vertices.len() as u64);
+        }
     }
 }

@@ -456,7 +456,15 @@ pub fn load(path: &Path, scene: &Scene) -> Result<Solution> {
         )));
     }
 
-    // The mesh, rebuilt.
+    // The mesh, rebuilt, once its size is known to be the one the file describes
+    // (a forged tiny mesh size must not make us build a gigantic mesh first).
+    let expected = RadiosityMesh::count_vertices(scene, p.settings.mesh_size);
+    if expected != p.vertex_count {
+        return Err(bad(format!(
+            "was computed on another radiosity mesh ({} vertices; this radtrace makes {} at mesh size {}): run `radtrace solve` again",
+            p.vertex_count, expected, p.settings.mesh_size
+        )));
+    }
     let mesh = RadiosityMesh::build(scene, p.settings.mesh_size);
     let fits = mesh.vertices.len() as u64 == p.vertex_count
         && mesh.patches.len() == patches
@@ -936,7 +944,7 @@ mod tests {
             &forged(&payload(&finer, g, l, ss, 168, counts(sol))),
         );
         assert!(
-            msg.contains("was computed on another radiosity mesh (168 vertices in 8 patches; this radtrace makes 518 vertices in 8 patches at mesh size 0.25)") &&
+            msg.contains("was computed on another radiosity mesh (168 vertices; this radtrace makes 518 at mesh size 0.25)") &&
             msg.contains("run `radtrace solve` again"),
             "{msg}"
         );
