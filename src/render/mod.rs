@@ -38,11 +38,11 @@ pub enum Method {
     Direct,
     /// Standard two-pass radiosity: shading from the radiosity mesh alone (Fig. 7).
     Twopass,
-    /// Radiosity for indirect light, every light source ray traced at fixed counts (Fig. 8).
+    /// Radiosity for indirect light, every light source ray traced at fixed counts (Fig. 8). Not yet available.
     Norm,
-    /// Per-patch source selection (Fig. 9).
+    /// Per-patch source selection (Fig. 9). Not yet available.
     Local,
-    /// The strongest sources ray traced everywhere.
+    /// The strongest sources ray traced everywhere. Not yet available.
     Global,
 }
 
