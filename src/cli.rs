@@ -274,22 +274,10 @@ fn progress_bar(len: u64, label: &str, quiet: bool) -> ProgressBar {
 fn cmd_render(a: RenderArgs) -> Result<()> {
     let total = Instant::now();
     check_output_ext(&a.output, &["exr", "png"])?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads.unwrap_or(0) as usize)
-        .build()
-        .map_err(|e| Error::Usage(format!("cannot start worker threads: {e}")))?;
-    let threads = pool.current_num_threads();
-    pool.install(|| {
+    with_threads(a.threads, |threads| {
         let mut t = Timings::default();
         let scene = t.time("load", || load_scene(&a.scene, a.quiet))?;
-        let sensor = scene.sensors.get(a.view).ok_or_else(|| {
-            Error::Usage(format!(
-                "--view {}: {} has {} view(s), numbered from 0",
-                a.view,
-                scene.path.display(),
-                scene.sensors.len()
-            ))
-        })?;
+        let sensor = scene.sensor(a.view)?;
         let settings = Settings {
             method: a.method,
             view: a.view,
@@ -303,7 +291,10 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         };
         let bvh = t.time("accel", || Bvh::build(&scene));
         if bvh.skipped > 0 && !a.quiet {
-            eprintln!("radtrace: warning: {} degenerate triangle(s) ignored", bvh.skipped);
+            eprintln!(
+                "radtrace: warning: {} degenerate triangle(s) ignored",
+                bvh.skipped
+            );
         }
         let solution = if a.method == Method::Direct {
             None
@@ -318,7 +309,9 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         pb.finish_and_clear();
         t.add("render", out.trace_s);
         t.add("reconstruct", out.reconstruct_s);
-        t.time("output", || crate::io::write_image(&out.image, &a.output, a.exposure))?;
+        t.time("output", || {
+            crate::io::write_image(&out.image, &a.output, a.exposure)
+        })?;
         let c = out.counters;
         if !a.quiet {
             eprintln!(
@@ -336,7 +329,11 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
             );
         }
         if let Some(path) = &a.stats {
-            let per_hit = if c.diffuse_hits > 0 { c.shadow_rays as f64 / c.diffuse_hits as f64 } else { 0.0 };
+            let per_hit = if c.diffuse_hits > 0 {
+                c.shadow_rays as f64 / c.diffuse_hits as f64
+            } else {
+                0.0
+            };
             let doc = json!({
                 "scene": scene.path,
                 "view": a.view,
@@ -412,11 +409,7 @@ fn solve_json(sol: &Solution) -> serde_json::Value {
 
 fn cmd_solve(a: SolveCmdArgs) -> Result<()> {
     let total = Instant::now();
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads.unwrap_or(0) as usize)
-        .build()
-        .map_err(|e| Error::Usage(format!("cannot start worker threads: {e}")))?;
-    pool.install(|| {
+    with_threads(a.threads, |_| {
         let mut t = Timings::default();
         let scene = t.time("load", || load_scene(&a.scene, a.quiet))?;
         let st = a.solve.settings(&scene, a.seed)?;
@@ -522,6 +515,17 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
         println!("mean FLIP {:.4}  RMSE {:.5}", c.flip, c.rmse);
     }
     Ok(())
+}
+
+/// Runs `f` on a pool of `threads` workers (all cores when `None`), passing the
+/// number of workers.
+fn with_threads<T: Send>(threads: Option<u32>, f: impl FnOnce(usize) -> Result<T> + Send) -> Result<T> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.unwrap_or(0) as usize)
+        .build()
+        .map_err(|e| Error::Usage(format!("cannot start worker threads: {e}")))?;
+    let n = pool.current_num_threads();
+    pool.install(|| f(n))
 }
 
 fn check_output_ext(path: &Path, allowed: &[&str]) -> Result<()> {

@@ -47,6 +47,8 @@ pub struct Grid {
     pub first_vertex: u32,
     /// Normals point the other way (the back twin of a two-sided patch).
     pub flip: bool,
+    /// Surface area (the sum of its elements' areas).
+    pub area: f32,
 }
 
 /// A radiosity patch: the unit that keeps a source list.
@@ -389,14 +391,16 @@ impl RadiosityMesh {
                 let mut elements = 0;
                 for domain in domains {
                     let (n, m) = grid_size(&domain, mesh_size);
-                    let grid = Grid {
+                    let mut grid = Grid {
                         domain,
                         n,
                         m,
                         first_vertex: mesh.vertices.len() as u32,
                         flip: false,
+                        area: 0.0,
                     };
                     let (verts, a) = grid_vertices(&grid, patch_index);
+                    grid.area = a;
                     area += a;
                     elements += grid.element_count();
                     mesh.vertices.extend(verts);
@@ -457,6 +461,7 @@ impl RadiosityMesh {
                         m,
                         first_vertex: 0,
                         flip: false,
+                        area: 0.0,
                     };
                     total += sides * u64::from(g.vertex_count());
                 }
@@ -521,17 +526,16 @@ impl RadiosityMesh {
     /// area), each with a point jittered inside it by `u`.
     pub fn shoot_cells(&self, patch: u32, count: u32, u: impl Fn(u32) -> Vec2) -> Vec<ShootCell> {
         let p = &self.patches[patch as usize];
-        let areas: Vec<f32> = p.grids.iter().map(grid_area).collect();
-        let total: f32 = areas.iter().sum();
+        let total = p.area;
         let mut out = Vec::with_capacity(count as usize);
         if !(total > 0.0) {
             return out;
         }
         for (g, grid) in p.grids.iter().enumerate() {
-            let k = (count as f32 * areas[g] / total).max(1.0);
+            let k = (count as f32 * grid.area / total).max(1.0);
             let side = (k.sqrt().round() as u32).max(1);
             let base = g as u32 * 65_537;
-            let mut push = |corners: Vec<(f32, f32)>, idx: u32| {
+            let mut push = |corners: &[(f32, f32)], idx: u32| {
                 let r = u(base + idx);
                 // Uniform point in the cell (triangle or parallelogram in parameters).
                 let (s, t) = if corners.len() == 3 {
@@ -568,10 +572,10 @@ impl RadiosityMesh {
                     let mut idx = 0;
                     for j in 0..m {
                         for i in 0..m - j {
-                            push(vec![f(i, j), f(i + 1, j), f(i, j + 1)], idx);
+                            push(&[f(i, j), f(i + 1, j), f(i, j + 1)], idx);
                             idx += 1;
                             if i + j + 1 < m {
-                                push(vec![f(i + 1, j + 1), f(i, j + 1), f(i + 1, j)], idx);
+                                push(&[f(i + 1, j + 1), f(i, j + 1), f(i + 1, j)], idx);
                                 idx += 1;
                             }
                         }
@@ -582,7 +586,7 @@ impl RadiosityMesh {
                     for j in 0..side {
                         for i in 0..side {
                             push(
-                                vec![f(i, j), f(i + 1, j), f(i + 1, j + 1), f(i, j + 1)],
+                                &[f(i, j), f(i + 1, j), f(i + 1, j + 1), f(i, j + 1)],
                                 j * side + i,
                             );
                         }
@@ -615,27 +619,6 @@ impl ShootCell {
     /// The corner polygon.
     pub fn polygon(&self) -> &[Vec3] {
         &self.corners[..self.len as usize]
-    }
-}
-
-fn grid_area(g: &Grid) -> f32 {
-    match g.domain {
-        Domain::Tri(_) => 0.5 * g.jacobian(0.0, 0.0),
-        Domain::Quad(_) => {
-            0.25 * (0..4)
-                .map(|k| g.jacobian(0.25 + 0.5 * (k % 2) as f32, 0.25 + 0.5 * (k / 2) as f32))
-                .sum::<f32>()
-        }
-        Domain::Bezier { .. } => {
-            let n = 6;
-            let mut a = 0.0;
-            for i in 0..n {
-                for j in 0..n {
-                    a += g.jacobian((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-                }
-            }
-            a / (n * n) as f32
-        }
     }
 }
 

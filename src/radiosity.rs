@@ -263,14 +263,13 @@ pub(crate) fn solve_traced(
         },
         mesh,
     };
-    let emitted: f64 = scene.lights.iter().map(|l| light_power(scene, l)).sum();
+    let power: Vec<f64> = scene.lights.iter().map(|l| light_power(scene, l)).collect();
+    let emitted: f64 = power.iter().sum();
     s.stats.emitted_power = emitted;
 
     // Lights first, strongest first.
     let mut order: Vec<usize> = (0..scene.lights.len()).collect();
-    order.sort_by(|&a, &b| {
-        light_power(scene, &scene.lights[b]).total_cmp(&light_power(scene, &scene.lights[a]))
-    });
+    order.sort_by(|&a, &b| power[b].total_cmp(&power[a]));
     for l in order {
         let points = s.light_points(l as u32);
         s.shoot(SourceId::Light(l as u32), &points);
@@ -345,8 +344,9 @@ impl Solver<'_> {
     }
 
     fn jitter(&self, shot: u64) -> impl Fn(u32) -> Vec2 {
-        let seed = crate::render::splitmix64(self.settings.seed ^ shot.wrapping_mul(0x9E37_79B9_7F4A_7C15));
-        let seed = (seed ^ (seed >> 32)) as u32;
+        let seed = crate::render::fold32(crate::render::splitmix64(
+            self.settings.seed ^ shot.wrapping_mul(0x9E37_79B9_7F4A_7C15),
+        ));
         move |k| Vec2::new(sobol_burley::sample(k, 0, seed), sobol_burley::sample(k, 1, seed))
     }
 

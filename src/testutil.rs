@@ -1,5 +1,7 @@
 //! Small scenes built in code, for tests.
 
+use std::path::{Path, PathBuf};
+
 use glam::Vec3;
 
 use crate::geometry::{Patch, TriMesh};
@@ -75,4 +77,16 @@ pub fn scene_with(
     }
     s.lights = lights;
     s
+}
+
+/// A fixture file under `tests/data/mesh/`.
+pub fn mesh_data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/mesh")
+        .join(name)
+}
+
+/// The Newell teapot as the paper room uses it.
+pub fn teapot_bpt() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/paper-room/teapot.bpt")
 }

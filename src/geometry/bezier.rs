@@ -306,14 +306,10 @@ mod tests {
     use super::*;
     use std::path::PathBuf;
 
-    fn data(name: &str) -> PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("tests/data/mesh")
-            .join(name)
-    }
+    use crate::testutil::teapot_bpt;
 
     fn teapot() -> Vec<BezierPatch> {
-        read_bpt(&data("teapot.bpt")).expect("teapot reads")
+        read_bpt(&teapot_bpt()).expect("teapot reads")
     }
 
     /// A patch whose control points are a regular grid on z = 0 over `[0,2]x[0,3]`.
@@ -591,7 +587,7 @@ mod tests {
     #[test]
     fn bpt_errors() {
         let dir = tempfile::tempdir().unwrap();
-        let text = std::fs::read_to_string(data("teapot.bpt")).unwrap();
+        let text = std::fs::read_to_string(teapot_bpt()).unwrap();
         let lines: Vec<&str> = text.lines().collect();
 
         // Truncated: data runs out at the last line kept.
@@ -691,7 +687,7 @@ mod tests {
 
         #[test]
         fn bpt_mutated_never_panics(cut in 0usize..3000, junk in "[0-9a-z .\\-\n]{0,20}") {
-            let text = std::fs::read_to_string(data("teapot.bpt")).unwrap();
+            let text = std::fs::read_to_string(teapot_bpt()).unwrap();
             let cut = cut.min(text.len());
             let dir = tempfile::tempdir().unwrap();
             let p = dir.path().join("x.bpt");

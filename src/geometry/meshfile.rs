@@ -726,11 +726,7 @@ mod tests {
     use super::*;
     use std::path::PathBuf;
 
-    fn data(name: &str) -> PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("tests/data/mesh")
-            .join(name)
-    }
+    use crate::testutil::{mesh_data as data, teapot_bpt};
 
     fn write(dir: &tempfile::TempDir, name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {
         let p = dir.path().join(name);
@@ -1223,7 +1219,7 @@ mod tests {
     #[test]
     fn write_obj_round_trip() {
         let dir = tempfile::tempdir().unwrap();
-        let teapot = crate::geometry::bezier::read_bpt(&data("teapot.bpt")).unwrap();
+        let teapot = crate::geometry::bezier::read_bpt(&teapot_bpt()).unwrap();
         let meshes = [
             crate::geometry::bezier::tessellate(&teapot, 2, 3),
             read_obj(&data("cube_shared.obj"), true).unwrap(),

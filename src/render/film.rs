@@ -78,8 +78,8 @@ pub struct SampleBuffer {
 }
 
 impl SampleBuffer {
-    /// Builds a buffer from per-row sample lists, each sorted by pixel; `pixel_of`
-    /// gives a sample's pixel index.
+    /// Builds a buffer from per-row sample lists, grouping the samples by the pixel
+    /// their film position falls in.
     pub fn from_rows(width: u32, height: u32, rows: Vec<Vec<FilmSample>>) -> Self {
         let total: usize = rows.iter().map(Vec::len).sum();
         let mut samples = Vec::with_capacity(total);

@@ -48,14 +48,10 @@ pub enum Method {
 
 impl Method {
     /// The name used on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            Method::Direct => "direct",
-            Method::Twopass => "twopass",
-            Method::Norm => "norm",
-            Method::Local => "local",
-            Method::Global => "global",
-        }
+    pub fn name(self) -> String {
+        clap::ValueEnum::to_possible_value(&self)
+            .map(|v| v.get_name().to_owned())
+            .unwrap_or_default()
     }
 }
 
@@ -117,15 +113,7 @@ pub fn render(
             )))
         }
     };
-    let sensor = scene.sensors.get(settings.view).ok_or_else(|| {
-        Error::Usage(format!(
-            "--view {}: the scene {} has {} view(s) (0..{})",
-            settings.view,
-            scene.path.display(),
-            scene.sensors.len(),
-            scene.sensors.len().saturating_sub(1)
-        ))
-    })?;
+    let sensor = scene.sensor(settings.view)?;
     let (w, h) = (settings.width, settings.height);
     let camera = Camera::new(sensor, w, h);
 
@@ -176,7 +164,13 @@ pub fn render(
 
 /// A 32-bit seed for pixel `(x, y)` of a view, from the user's seed.
 fn pixel_seed(seed: u64, view: u64, x: u32, y: u32) -> u32 {
-    let h = splitmix64(seed ^ splitmix64(view << 48 ^ (y as u64) << 24 ^ x as u64));
+    fold32(splitmix64(
+        seed ^ splitmix64(view << 48 ^ (y as u64) << 24 ^ x as u64),
+    ))
+}
+
+/// Folds a 64-bit hash into 32 bits (for sample seeds).
+pub(crate) fn fold32(h: u64) -> u32 {
     (h ^ (h >> 32)) as u32
 }
 
@@ -190,6 +184,5 @@ pub(crate) fn splitmix64(mut z: u64) -> u64 {
 
 /// Mixes a 32-bit value (for deriving independent sample seeds).
 pub(crate) fn hash32(x: u32) -> u32 {
-    let h = splitmix64(x as u64);
-    (h ^ (h >> 32)) as u32
+    fold32(splitmix64(x as u64))
 }

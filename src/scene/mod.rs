@@ -183,6 +183,19 @@ impl Sensor {
     }
 }
 
+impl Scene {
+    /// View (sensor) number `view`, or a usage error naming the scene and its views.
+    pub fn sensor(&self, view: usize) -> crate::Result<&Sensor> {
+        self.sensors.get(view).ok_or_else(|| {
+            crate::Error::Usage(format!(
+                "--view {view}: {} has {} view(s), numbered from 0",
+                self.path.display(),
+                self.sensors.len()
+            ))
+        })
+    }
+}
+
 /// A loaded scene, ready to be rendered.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scene {

@@ -227,65 +227,57 @@ impl<'a, 'i> Obj<'a, 'i> {
         self.err_param(&p.name, format!("must be {want}, not {}", p.val.kind()))
     }
 
-    fn float(&self, name: &str) -> Result<Option<f32>> {
+    /// Property `name` if present, as the type `pick` accepts (`want` names it in
+    /// the error when the property has another type).
+    fn typed<T>(&self, name: &str, want: &str, pick: impl Fn(&Val) -> Option<T>) -> Result<Option<T>> {
         match self.get(name) {
             None => Ok(None),
-            Some(p) => match p.val {
-                Val::Float(v) => Ok(Some(v)),
-                Val::Int(i) => Ok(Some(i as f32)),
-                _ => Err(self.mismatch(p, "a float")),
-            },
+            Some(p) => pick(&p.val).map(Some).ok_or_else(|| self.mismatch(p, want)),
         }
+    }
+
+    fn float(&self, name: &str) -> Result<Option<f32>> {
+        self.typed(name, "a float", |v| match *v {
+            Val::Float(f) => Some(f),
+            Val::Int(i) => Some(i as f32),
+            _ => None,
+        })
     }
 
     fn int(&self, name: &str) -> Result<Option<i64>> {
-        match self.get(name) {
-            None => Ok(None),
-            Some(p) => match p.val {
-                Val::Int(i) => Ok(Some(i)),
-                _ => Err(self.mismatch(p, "an integer")),
-            },
-        }
+        self.typed(name, "an integer", |v| match *v {
+            Val::Int(i) => Some(i),
+            _ => None,
+        })
     }
 
     fn boolean(&self, name: &str, default: bool) -> Result<bool> {
-        match self.get(name) {
-            None => Ok(default),
-            Some(p) => match p.val {
-                Val::Bool(b) => Ok(b),
-                _ => Err(self.mismatch(p, "a boolean")),
-            },
-        }
+        let b = self.typed(name, "a boolean", |v| match *v {
+            Val::Bool(b) => Some(b),
+            _ => None,
+        })?;
+        Ok(b.unwrap_or(default))
     }
 
     fn string(&self, name: &str) -> Result<Option<String>> {
-        match self.get(name) {
-            None => Ok(None),
-            Some(p) => match &p.val {
-                Val::Str(s) => Ok(Some(s.clone())),
-                _ => Err(self.mismatch(p, "a string")),
-            },
-        }
+        self.typed(name, "a string", |v| match v {
+            Val::Str(s) => Some(s.clone()),
+            _ => None,
+        })
     }
 
     fn vec3(&self, name: &str) -> Result<Option<Vec3>> {
-        match self.get(name) {
-            None => Ok(None),
-            Some(p) => match p.val {
-                Val::Vec3(v) => Ok(Some(v)),
-                _ => Err(self.mismatch(p, "a point")),
-            },
-        }
+        self.typed(name, "a point", |v| match *v {
+            Val::Vec3(p) => Some(p),
+            _ => None,
+        })
     }
 
     fn transform(&self, name: &str) -> Result<Option<Mat4>> {
-        match self.get(name) {
-            None => Ok(None),
-            Some(p) => match p.val {
-                Val::Transform(m) => Ok(Some(m)),
-                _ => Err(self.mismatch(p, "a transform")),
-            },
-        }
+        self.typed(name, "a transform", |v| match *v {
+            Val::Transform(m) => Some(m),
+            _ => None,
+        })
     }
 
     /// A colour: `<rgb>`, `<spectrum>`, a grey `<float>`, or a texture.
