@@ -12,6 +12,7 @@ use crate::io::solution;
 use crate::radiosity::{self, Solution, SolveSettings};
 use crate::render::{self, Filter, Method, Settings};
 use crate::scene::{xml, Light, Scene};
+use crate::selection::{self, SelectPer, SelectSettings, Selection, ViewScale};
 use crate::stats::Timings;
 use crate::{Error, Result};
 
@@ -57,9 +58,10 @@ pub struct SolveArgs {
     /// bounding-box diagonal / 40].
     #[arg(long, value_name = "SIZE", allow_negative_numbers = true)]
     mesh_size: Option<f32>,
-    /// n: light sources kept apart, per patch, from the general radiosity.
-    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(0..=64))]
-    sources_per_patch: u32,
+    /// n: sources kept apart, per patch, from the general radiosity (lights are never
+    /// evicted by radiant patches) [default: the number of lights, at least 4].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=64))]
+    sources_per_patch: Option<u32>,
     /// Sample cells per area light or shooting patch in each shot.
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=4096))]
     shoot_samples: u32,
@@ -90,11 +92,90 @@ impl SolveArgs {
         }
         Ok(SolveSettings {
             mesh_size,
-            sources_per_patch: self.sources_per_patch,
+            sources_per_patch: self
+                .sources_per_patch
+                .unwrap_or((scene.lights.len() as u32).clamp(4, 64)),
             shoot_samples: self.shoot_samples,
             tolerance: self.solve_tolerance,
             max_shots: self.max_shots,
             seed,
+        })
+    }
+}
+
+/// Source selection (paper Sect. 3): thresholds of the five criteria, per patch or
+/// per object, and the global selection's size.
+#[derive(Debug, Args)]
+pub struct SelectArgs {
+    /// Make the local selection per patch, or per object (shape) so that patch
+    /// boundaries cannot show.
+    #[arg(long, value_enum, default_value_t = SelectPer::Patch)]
+    select_per: SelectPer,
+    /// Radiance criterion: a source must bring at least this fraction of a patch's
+    /// radiosity (unoccluded, where largest) to be ray traced there.
+    #[arg(long, default_value_t = SelectSettings::default().radiance_threshold, value_name = "FRACTION")]
+    radiance_threshold: f32,
+    /// Reflectivity criterion: no shadow rays from patches whose diffuse reflectance
+    /// (mean of RGB) is below this.
+    #[arg(long, default_value_t = SelectSettings::default().reflectivity_threshold, value_name = "REFLECTANCE")]
+    reflectivity_threshold: f32,
+    /// Gradient criterion: a source must be partly visible across a patch (its
+    /// visibility at the patch's vertices spreading by more than this) to be ray traced.
+    #[arg(long, default_value_t = SelectSettings::default().gradient_threshold, value_name = "FRACTION")]
+    gradient_threshold: f32,
+    /// Solid-angle criterion: sources seen under a larger solid angle (steradians,
+    /// mean over the patch) are left to the radiosity.
+    #[arg(long, default_value_t = SelectSettings::default().max_solid_angle, value_name = "SR")]
+    max_solid_angle: f32,
+    /// Shadow rays for a whole hemisphere: an area source seen under solid angle
+    /// Omega gets max(1, round(Omega / 2pi x this)) rays, at most --area-samples.
+    #[arg(long, default_value_t = SelectSettings::default().hemisphere_rays, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    hemisphere_rays: u32,
+    /// View criterion: patches whose mesh elements look smaller than this many
+    /// pixels are left to the mesh.
+    #[arg(long, default_value_t = SelectSettings::default().view_threshold, value_name = "PIXELS")]
+    view_threshold: f32,
+    /// Do not apply the view criterion (animation: the selection must not depend on
+    /// the camera).
+    #[arg(long)]
+    no_view_criterion: bool,
+    /// Sources ray traced everywhere by --method global.
+    #[arg(long, default_value_t = SelectSettings::default().global_sources)]
+    global_sources: u32,
+}
+
+impl SelectArgs {
+    fn settings(&self, area_samples: u32) -> Result<SelectSettings> {
+        let check = |name: &str, v: f32, lo: f32, hi: f32| {
+            if (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(Error::Usage(format!(
+                    "--{name} {v}: must be between {lo} and {hi}"
+                )))
+            }
+        };
+        check("radiance-threshold", self.radiance_threshold, 0.0, f32::MAX)?;
+        check("reflectivity-threshold", self.reflectivity_threshold, 0.0, 1.0)?;
+        check("gradient-threshold", self.gradient_threshold, 0.0, 1.0)?;
+        check(
+            "max-solid-angle",
+            self.max_solid_angle,
+            0.0,
+            4.0 * std::f32::consts::PI,
+        )?;
+        check("view-threshold", self.view_threshold, 0.0, f32::MAX)?;
+        Ok(SelectSettings {
+            per: self.select_per,
+            radiance_threshold: self.radiance_threshold,
+            reflectivity_threshold: self.reflectivity_threshold,
+            gradient_threshold: self.gradient_threshold,
+            max_solid_angle: self.max_solid_angle,
+            hemisphere_rays: self.hemisphere_rays,
+            view_threshold: self.view_threshold,
+            view_criterion: !self.no_view_criterion,
+            area_samples,
+            global_sources: self.global_sources,
         })
     }
 }
@@ -132,7 +213,7 @@ pub struct RenderArgs {
     #[arg(short, long)]
     output: PathBuf,
     /// How direct light is computed.
-    #[arg(long, value_enum, default_value_t = Method::Direct)]
+    #[arg(long, value_enum, default_value_t = Method::Local)]
     method: Method,
     /// Which view (sensor) of the scene, from 0.
     #[arg(long, default_value_t = 0)]
@@ -170,11 +251,25 @@ pub struct RenderArgs {
     /// No progress bar and no warnings on stderr.
     #[arg(short, long)]
     quiet: bool,
+    /// Print the statistics as a text table in the layout of the paper's Table 1
+    /// (diffuse hits, shadow rays, rays per hit; per source below).
+    #[arg(long)]
+    stats_table: bool,
+    /// A --stats file of a fully sampled render (--method norm) of the same view: the
+    /// table then shows both rows and the shadow rays saved.
+    #[arg(long, value_name = "FILE")]
+    baseline: Option<PathBuf>,
+    /// Write a picture of the selection (PNG): each patch coloured by the sources ray
+    /// traced on it, brighter for more shadow rays per hit.
+    #[arg(long, value_name = "FILE")]
+    selection_map: Option<PathBuf>,
     /// Reuse a radiosity solution saved by `radtrace solve` instead of solving.
     #[arg(long, value_name = "FILE")]
     solution: Option<PathBuf>,
     #[command(flatten)]
     solve: SolveArgs,
+    #[command(flatten)]
+    select: SelectArgs,
 }
 
 /// `radtrace info`.
@@ -274,6 +369,16 @@ fn progress_bar(len: u64, label: &str, quiet: bool) -> ProgressBar {
 fn cmd_render(a: RenderArgs) -> Result<()> {
     let total = Instant::now();
     check_output_ext(&a.output, &["exr", "png"])?;
+    if let Some(map) = &a.selection_map {
+        check_output_ext(map, &["png"])?;
+        if a.method == Method::Direct {
+            return Err(Error::Usage(
+                "--selection-map needs a method with a radiosity solution (not --method direct)".into(),
+            ));
+        }
+    }
+    let select_settings = a.select.settings(a.area_samples)?;
+    let baseline = a.baseline.as_deref().map(read_baseline).transpose()?;
     with_threads(a.threads, |threads| {
         let mut t = Timings::default();
         let scene = t.time("load", || load_scene(&a.scene, a.quiet))?;
@@ -304,18 +409,55 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
             let st = a.solve.settings(&scene, a.seed)?;
             Some(t.time("solve", || run_solve(&scene, &bvh, &st, a.quiet)))
         };
+        let camera = render::Camera::new(sensor, settings.width, settings.height);
+        let selection = match &solution {
+            Some(sol) => {
+                let view = ViewScale::of(&camera);
+                Some(t.time("select", || {
+                    selection::select(&scene, sol, a.method, &select_settings, Some(&view))
+                })?)
+            }
+            None => None,
+        };
+        if let (Some(sel), false) = (&selection, a.quiet) {
+            if a.method == Method::Local {
+                print_selection_summary(sel);
+            }
+        }
+        if let (Some(path), Some(sel)) = (&a.selection_map, &selection) {
+            let img = t.time("selection_map", || {
+                selection::selection_map(&scene, &bvh, &camera, sel, settings.width, settings.height)
+            });
+            crate::io::write_image(&img, path, 0.0)?;
+            if !a.quiet {
+                eprintln!(
+                    "radtrace: selection map -> {} (colours per source:)",
+                    path.display()
+                );
+                for i in 0..sel.sources.len().min(16) {
+                    let c = selection::source_colour(i);
+                    eprintln!(
+                        "  {:<28} rgb({:.0}, {:.0}, {:.0})",
+                        sel.source_name(&scene, i),
+                        255.0 * c.x,
+                        255.0 * c.y,
+                        255.0 * c.z
+                    );
+                }
+            }
+        }
         let pb = progress_bar(settings.height as u64, "render", a.quiet);
-        let out = render::render(&scene, &bvh, &settings, solution.as_ref(), Some(&pb))?;
+        let out = render::render(&scene, &bvh, &settings, selection.as_ref(), Some(&pb))?;
         pb.finish_and_clear();
         t.add("render", out.trace_s);
         t.add("reconstruct", out.reconstruct_s);
         t.time("output", || {
             crate::io::write_image(&out.image, &a.output, a.exposure)
         })?;
-        let c = out.counters;
+        let c = &out.counters;
         if !a.quiet {
             eprintln!(
-                "radtrace: {} view {} {}x{} {} spp, {} method: {:.2} s, {} shadow rays, {} diffuse hits -> {}",
+                "radtrace: {} view {} {}x{} {} spp, {} method: {:.2} s, {} shadow rays, {} diffuse hits ({:.1} per hit) -> {}",
                 scene.path.display(),
                 a.view,
                 settings.width,
@@ -325,15 +467,50 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
                 total.elapsed().as_secs_f64(),
                 c.shadow_rays,
                 c.diffuse_hits,
+                c.rays_per_hit(),
                 a.output.display()
             );
         }
+        let names: Vec<(String, String)> = (0..c.sources.len())
+            .map(|i| match &selection {
+                Some(sel) => (sel.source_name(&scene, i), source_kind(&scene, sel.sources[i])),
+                None => (scene.light_name(i), scene.lights[i].kind().to_string()),
+            })
+            .collect();
+        if a.stats_table {
+            print!(
+                "{}",
+                crate::stats::table1(
+                    &format!(
+                        "{}, view {}, {}x{}, {} spp",
+                        scene.path.display(),
+                        a.view,
+                        settings.width,
+                        settings.height,
+                        settings.spp
+                    ),
+                    &a.method.name(),
+                    c,
+                    &names,
+                    baseline.as_ref()
+                )
+            );
+        }
         if let Some(path) = &a.stats {
-            let per_hit = if c.diffuse_hits > 0 {
-                c.shadow_rays as f64 / c.diffuse_hits as f64
-            } else {
-                0.0
-            };
+            let sources: Vec<serde_json::Value> = c
+                .sources
+                .iter()
+                .zip(&names)
+                .map(|(s, (name, kind))| {
+                    json!({
+                        "name": name,
+                        "kind": kind,
+                        "hits": s.hits,
+                        "shadow_rays": s.shadow_rays,
+                        "rays_per_hit": if c.diffuse_hits > 0 { s.shadow_rays as f64 / c.diffuse_hits as f64 } else { 0.0 },
+                    })
+                })
+                .collect();
             let doc = json!({
                 "scene": scene.path,
                 "view": a.view,
@@ -352,14 +529,112 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
                 "shadow_rays": c.shadow_rays,
                 "diffuse_hits": c.diffuse_hits,
                 "reflection_rays": c.reflection_rays,
-                "shadow_rays_per_hit": per_hit,
+                "shadow_rays_per_hit": c.rays_per_hit(),
+                "sources": sources,
                 "solve": solution.as_ref().map(solve_json),
+                "selection": selection.as_ref().map(|sel| selection_json(sel, &select_settings)),
                 "time_s": t.to_json(total.elapsed().as_secs_f64()),
             });
             let text = serde_json::to_string_pretty(&doc).expect("stats serialise") + "\n";
             crate::io::write_atomic(path, text.as_bytes())?;
         }
         Ok(())
+    })
+}
+
+/// "spot", "area", ... or "patch" for a radiant patch.
+fn source_kind(scene: &Scene, s: radiosity::SourceId) -> String {
+    match s {
+        radiosity::SourceId::Light(l) => scene.lights[l as usize].kind().to_string(),
+        radiosity::SourceId::Patch(_) => "patch".to_string(),
+    }
+}
+
+/// How many (patch, listed source) pairs each criterion turned down.
+fn rejections(sel: &Selection) -> serde_json::Value {
+    let mut listed = 0;
+    let mut selected = 0;
+    let mut r = [0u64; 5];
+    for (_, c) in sel.criteria.iter().flatten() {
+        listed += 1;
+        selected += c.selected() as u64;
+        for (k, ok) in [c.radiance, c.reflectivity, c.gradient, c.solid_angle, c.view]
+            .into_iter()
+            .enumerate()
+        {
+            r[k] += !ok as u64;
+        }
+    }
+    json!({
+        "listed": listed,
+        "selected": selected,
+        "rejected_by": {
+            "radiance": r[0], "reflectivity": r[1], "gradient": r[2], "solid_angle": r[3], "view": r[4],
+        },
+    })
+}
+
+fn print_selection_summary(sel: &Selection) {
+    let r = rejections(sel);
+    let by = &r["rejected_by"];
+    eprintln!(
+        "radtrace: local selection: {} of {} listed (patch, source) pairs ray traced; turned down by radiance {}, reflectivity {}, gradient {}, solid angle {}, view {}",
+        sel.pick_count(),
+        r["listed"],
+        by["radiance"],
+        by["reflectivity"],
+        by["gradient"],
+        by["solid_angle"],
+        by["view"]
+    );
+}
+
+/// The `selection` object of the statistics JSON.
+fn selection_json(sel: &Selection, st: &SelectSettings) -> serde_json::Value {
+    let mesh = &sel.solution.mesh;
+    let patches_with_rays = (0..mesh.patches.len() as u32)
+        .filter(|&p| !sel.picks(p).is_empty())
+        .count();
+    let mut doc = json!({
+        "method": sel.method,
+        "settings": st,
+        "picks": sel.pick_count(),
+        "patches": mesh.patches.len(),
+        "patches_with_rays": patches_with_rays,
+        "radiant_patches_sampled": sel.sources.len() - sel.sources.iter().filter(|s| matches!(s, radiosity::SourceId::Light(_))).count(),
+    });
+    if sel.method == Method::Local {
+        doc["criteria"] = rejections(sel);
+    }
+    doc
+}
+
+/// Reads the baseline of `--baseline`: a `--stats` file.
+fn read_baseline(path: &Path) -> Result<crate::stats::Baseline> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+        Error::input(
+            path,
+            Some(crate::error::Pos {
+                line: e.line() as u32,
+                col: e.column() as u32,
+            }),
+            format!("not a JSON statistics file: {e}"),
+        )
+    })?;
+    let get = |k: &str| {
+        v.get(k)
+            .and_then(|x| x.as_u64())
+            .ok_or_else(|| Error::input(path, None, format!("no '{k}' count: not a radtrace --stats file")))
+    };
+    Ok(crate::stats::Baseline {
+        method: v
+            .get("method")
+            .and_then(|m| m.as_str())
+            .unwrap_or("baseline")
+            .to_string(),
+        diffuse_hits: get("diffuse_hits")?,
+        shadow_rays: get("shadow_rays")?,
     })
 }
 

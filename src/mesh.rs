@@ -480,14 +480,21 @@ impl RadiosityMesh {
         self.shape_first_patch[shape as usize] + scene.shapes[shape as usize].mesh.tri_patch[tri as usize]
     }
 
+    /// The patch a ray hit: the front patch of the hit triangle, or its back twin
+    /// when the back of a two-sided patch was hit.
+    pub fn patch_at(&self, scene: &Scene, hit: &Hit, front: bool) -> u32 {
+        let p = self.patch_of(scene, hit.shape, hit.tri);
+        match (front, self.patches[p as usize].twin) {
+            (false, Some(t)) => t,
+            _ => p,
+        }
+    }
+
     /// Interpolation weights at a ray hit (its patch, element and corner weights);
     /// `front` tells which side was hit (the back of a two-sided patch has its own
-    /// values).
+    /// values). The patch is that of the first weighted vertex.
     pub fn locate(&self, scene: &Scene, hit: &Hit, p: Vec3, front: bool) -> Interp {
-        let mut patch = &self.patches[self.patch_of(scene, hit.shape, hit.tri) as usize];
-        if let (false, Some(t)) = (front, patch.twin) {
-            patch = &self.patches[t as usize];
-        }
+        let patch = &self.patches[self.patch_at(scene, hit, front) as usize];
         let grid = match patch.grids.len() {
             1 => &patch.grids[0],
             _ => {
@@ -519,6 +526,52 @@ impl RadiosityMesh {
             }
         };
         grid.interp(st.x, st.y)
+    }
+
+    /// The elements of patch `patch` as triangles of vertex indices (quadrilateral
+    /// elements split along a diagonal), wound so that their normal is the patch's
+    /// (for a back twin: the reversed one).
+    pub fn element_triangles(&self, patch: u32) -> Vec<[u32; 3]> {
+        let p = &self.patches[patch as usize];
+        let mut out = Vec::with_capacity(2 * p.element_count as usize);
+        for g in &p.grids {
+            let base = g.first_vertex;
+            match g.domain {
+                Domain::Tri(_) => {
+                    let k = g.n;
+                    let idx = |i: u32, j: u32| base + tri_vertex(k, i, j);
+                    for j in 0..k {
+                        for i in 0..k - j {
+                            out.push([idx(i, j), idx(i + 1, j), idx(i, j + 1)]);
+                            if i + j + 1 < k {
+                                out.push([idx(i + 1, j + 1), idx(i, j + 1), idx(i + 1, j)]);
+                            }
+                        }
+                    }
+                }
+                _ => {
+                    let idx = |i: u32, j: u32| base + j * (g.n + 1) + i;
+                    for j in 0..g.m {
+                        for i in 0..g.n {
+                            let (a, b, c, d) = (idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1));
+                            out.push([a, b, c]);
+                            out.push([a, c, d]);
+                        }
+                    }
+                }
+            }
+        }
+        // Parameter order follows the front's winding; turn triangles that face away
+        // from their vertices' normals (back twins, and Bezier patches whose
+        // parameterisation runs the other way).
+        for t in &mut out {
+            let [a, b, c] = t.map(|i| self.vertices[i as usize]);
+            let n = (b.p - a.p).cross(c.p - a.p);
+            if n.dot(a.n + b.n + c.n) < 0.0 {
+                t.swap(1, 2);
+            }
+        }
+        out
     }
 
     /// The patch cut into about `count` cells for shooting from it (stratified:
@@ -766,6 +819,36 @@ mod tests {
         }
         assert!((m.patches[0].area - 2.0).abs() < 1e-5);
         assert!((m.patches[1].area - 3.25).abs() < 1e-4);
+    }
+
+    /// Element triangles tile the patch: their areas sum to its area, and they face
+    /// like its vertices, on both sides of a two-sided patch.
+    #[test]
+    fn element_triangles_tile_the_patch_and_face_its_normal() {
+        let mut s = tri_scene();
+        s.bsdfs[1].twosided = true;
+        let m = RadiosityMesh::build(&s, 0.3);
+        assert_eq!(m.patches.len(), 3, "quad has a back twin");
+        for (pi, p) in m.patches.iter().enumerate() {
+            let tris = m.element_triangles(pi as u32);
+            assert_eq!(
+                tris.len() as u32,
+                if pi == 0 {
+                    p.element_count
+                } else {
+                    2 * p.element_count
+                }
+            );
+            let mut area = 0.0;
+            for t in &tris {
+                let [a, b, c] = t.map(|i| m.vertices[i as usize]);
+                assert!(t.iter().all(|&i| m.vertices[i as usize].patch == pi as u32));
+                let n = (b.p - a.p).cross(c.p - a.p);
+                area += 0.5 * n.length();
+                assert!(n.normalize().dot(a.n) > 0.999, "patch {pi}");
+            }
+            assert!((area - p.area).abs() < 1e-4 * p.area, "{area} vs {}", p.area);
+        }
     }
 
     /// Gouraud interpolation of a linear function of position is exact, at any hit.

@@ -9,6 +9,10 @@
 //! other light goes into the vertex's *general radiosity*. A source that drops out of a
 //! list is folded into the general radiosity of that patch, so every source reaches a
 //! vertex by exactly one route. Further shooting always uses the total.
+//!
+//! Lights are pinned in the lists: a radiant patch never evicts a light. With `n` at
+//! least the number of lights, every light's contribution stays apart on every patch
+//! it reaches, which the render methods `norm`, `local` and `global` rely on.
 
 use std::collections::BTreeSet;
 use std::time::Instant;
@@ -554,9 +558,14 @@ impl Solver<'_> {
                 });
                 return;
             }
+            // Lights are pinned: a radiant patch never evicts a light, so with n at
+            // least the number of lights every light stays apart on every patch it
+            // reaches (what `--method norm` needs).
+            let patch_source = matches!(source, SourceId::Patch(_));
             let weakest = list
                 .iter()
                 .enumerate()
+                .filter(|(_, e)| !(patch_source && matches!(e.source, SourceId::Light(_))))
                 .min_by(|a, b| a.1.power.total_cmp(&b.1.power));
             if let Some((i, e)) = weakest {
                 if power > e.power {
@@ -762,6 +771,64 @@ mod tests {
                 assert!((*u - *o).min_element() >= -1e-6);
             }
         }
+    }
+
+    /// A dim light and a bright white patch next to a receiver: with n = 1 the
+    /// patch brings the receiver more light than the light, but may not evict it.
+    #[test]
+    fn radiant_patches_never_evict_lights() {
+        let v = Vec3::new;
+        // Receiver: the floor square at z = 0 facing up; a bright white wall at x = 1
+        // facing -x, lit by a strong narrow spot aimed at it (missing the floor); a dim
+        // point light above the floor.
+        let floor = quad([
+            v(0.0, 0.0, 0.0),
+            v(1.0, 0.0, 0.0),
+            v(1.0, 1.0, 0.0),
+            v(0.0, 1.0, 0.0),
+        ]);
+        let wall = quad([
+            v(1.0, 0.0, 0.0),
+            v(1.0, 0.0, 1.0),
+            v(1.0, 1.0, 1.0),
+            v(1.0, 1.0, 0.0),
+        ]);
+        let lights = vec![
+            Light::Spot {
+                position: v(0.05, 0.5, 0.5),
+                direction: v(1.0, 0.0, 0.0),
+                intensity: Vec3::splat(50.0),
+                cutoff_angle: 0.3,
+                beam_width: 0.2,
+            },
+            Light::Point {
+                position: v(0.5, 0.5, 2.0),
+                intensity: Vec3::splat(0.01),
+            },
+        ];
+        let s = scene(vec![(floor, Vec3::splat(0.5)), (wall, Vec3::ONE)], lights, &[]);
+        let bvh = Bvh::build(&s);
+        let mut st = settings(0.25, 16, 5);
+        st.sources_per_patch = 1;
+        let (sol, folded) = solve_traced(&s, &bvh, &st, None);
+        let floor_list = &sol.lists[0];
+        assert_eq!(floor_list.len(), 1);
+        assert_eq!(
+            floor_list[0].source,
+            SourceId::Light(1),
+            "the dim light stays listed"
+        );
+        assert!(
+            folded[0].contains(&SourceId::Patch(1)),
+            "the brighter wall went to the general radiosity: {:?}",
+            folded[0]
+        );
+        // It was brighter: its share of the floor's general radiosity exceeds the light's.
+        let first = sol.mesh.patches[0].first_vertex as usize;
+        let n = sol.mesh.patches[0].vertex_count as usize;
+        let general: f32 = sol.general[first..first + n].iter().map(|c| c.x).sum();
+        let light: f32 = floor_list[0].occluded.iter().map(|c| c.x).sum();
+        assert!(general > light, "{general} vs {light}");
     }
 
     #[test]

@@ -9,7 +9,7 @@ use std::ops::AddAssign;
 use serde::Serialize;
 
 /// Event counters. The names are the keys of the `--stats` JSON file.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
 pub struct Counters {
     /// Camera rays traced.
     pub primary_rays: u64,
@@ -19,6 +19,37 @@ pub struct Counters {
     pub diffuse_hits: u64,
     /// Mirror reflection rays traced.
     pub reflection_rays: u64,
+    /// Per ray-traced source (the scene's lights first, in order, then selected
+    /// radiant patches): the diffuse hits that sampled it and the shadow rays cast.
+    pub sources: Vec<SourceCount>,
+}
+
+/// Counts for one ray-traced source.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct SourceCount {
+    /// Diffuse hits at which the source was sampled with shadow rays.
+    pub hits: u64,
+    /// Shadow rays cast towards it.
+    pub shadow_rays: u64,
+}
+
+impl Counters {
+    /// Zero counts for `sources` ray-traced sources.
+    pub fn with_sources(sources: usize) -> Self {
+        Counters {
+            sources: vec![SourceCount::default(); sources],
+            ..Default::default()
+        }
+    }
+
+    /// Shadow rays per diffuse hit (0 without hits).
+    pub fn rays_per_hit(&self) -> f64 {
+        if self.diffuse_hits > 0 {
+            self.shadow_rays as f64 / self.diffuse_hits as f64
+        } else {
+            0.0
+        }
+    }
 }
 
 impl AddAssign for Counters {
@@ -27,7 +58,115 @@ impl AddAssign for Counters {
         self.shadow_rays += o.shadow_rays;
         self.diffuse_hits += o.diffuse_hits;
         self.reflection_rays += o.reflection_rays;
+        if self.sources.len() < o.sources.len() {
+            self.sources.resize(o.sources.len(), SourceCount::default());
+        }
+        for (a, b) in self.sources.iter_mut().zip(o.sources) {
+            a.hits += b.hits;
+            a.shadow_rays += b.shadow_rays;
+        }
     }
+}
+
+/// The fully sampled render another one is compared with (`--baseline`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Baseline {
+    /// Its method (the row's label).
+    pub method: String,
+    /// Its diffuse hits.
+    pub diffuse_hits: u64,
+    /// Its shadow rays.
+    pub shadow_rays: u64,
+}
+
+/// Percentage of `baseline`'s shadow rays that `rays` saves.
+pub fn percent_saved(rays: u64, baseline: u64) -> f64 {
+    if baseline == 0 {
+        0.0
+    } else {
+        100.0 * (1.0 - rays as f64 / baseline as f64)
+    }
+}
+
+/// The counts as a text table in the layout of the paper's Table 1: one row for the
+/// baseline (if any) and one for this render (`method`), then the shadow rays per
+/// source (`names`: name and kind of each entry of `c.sources`).
+pub fn table1(
+    title: &str,
+    method: &str,
+    c: &Counters,
+    names: &[(String, String)],
+    baseline: Option<&Baseline>,
+) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    let _ = writeln!(out, "Table 1. Diffuse hits and shadow rays: {title}");
+    let _ = writeln!(
+        out,
+        "{:<10} {:>20} {:>20} {:>20} {:>20}",
+        "method", "No. of diffuse hits", "No. of shadow rays", "Shadow rays per hit", "% Shadow rays saved"
+    );
+    let row = |out: &mut String, label: &str, hits: u64, rays: u64, saved: Option<f64>| {
+        let per = if hits > 0 { rays as f64 / hits as f64 } else { 0.0 };
+        let saved = saved.map(|s| format!("{s:.0}")).unwrap_or_else(|| "-".into());
+        let _ = writeln!(out, "{label:<10} {hits:>20} {rays:>20} {per:>20.1} {saved:>20}");
+    };
+    if let Some(b) = baseline {
+        row(&mut out, &b.method, b.diffuse_hits, b.shadow_rays, Some(0.0));
+    }
+    row(
+        &mut out,
+        method,
+        c.diffuse_hits,
+        c.shadow_rays,
+        baseline.map(|b| percent_saved(c.shadow_rays, b.shadow_rays)),
+    );
+    let _ = writeln!(out);
+    let _ = writeln!(
+        out,
+        "{:<32} {:>6} {:>16} {:>20} {:>20}",
+        format!("per source ({method})"),
+        "kind",
+        "hits sampled",
+        "No. of shadow rays",
+        "Shadow rays per hit"
+    );
+    let mut patches = SourceCount::default();
+    let mut patch_count = 0;
+    for (s, (name, kind)) in c.sources.iter().zip(names) {
+        if kind == "patch" {
+            patches.hits += s.hits;
+            patches.shadow_rays += s.shadow_rays;
+            patch_count += 1;
+            continue;
+        }
+        let per = if c.diffuse_hits > 0 {
+            s.shadow_rays as f64 / c.diffuse_hits as f64
+        } else {
+            0.0
+        };
+        let _ = writeln!(
+            out,
+            "{name:<32} {kind:>6} {:>16} {:>20} {per:>20.2}",
+            s.hits, s.shadow_rays
+        );
+    }
+    if patch_count > 0 {
+        let per = if c.diffuse_hits > 0 {
+            patches.shadow_rays as f64 / c.diffuse_hits as f64
+        } else {
+            0.0
+        };
+        let _ = writeln!(
+            out,
+            "{:<32} {:>6} {:>16} {:>20} {per:>20.2}",
+            format!("{patch_count} radiant patches"),
+            "patch",
+            patches.hits,
+            patches.shadow_rays
+        );
+    }
+    out
 }
 
 /// Wall-clock seconds per pass, in the order the passes ran; `total` is added on output.
@@ -71,18 +210,21 @@ mod tests {
     use super::*;
 
     #[test]
-    fn counters_add_field_by_field() {
+    fn counters_add_field_by_field_and_source_by_source() {
+        let src = |hits, shadow_rays| SourceCount { hits, shadow_rays };
         let mut a = Counters {
             primary_rays: 1,
             shadow_rays: 2,
             diffuse_hits: 3,
             reflection_rays: 4,
+            sources: vec![src(1, 2)],
         };
         a += Counters {
             primary_rays: 10,
             shadow_rays: 20,
             diffuse_hits: 30,
             reflection_rays: 40,
+            sources: vec![src(10, 20), src(5, 6)],
         };
         assert_eq!(
             a,
@@ -90,9 +232,67 @@ mod tests {
                 primary_rays: 11,
                 shadow_rays: 22,
                 diffuse_hits: 33,
-                reflection_rays: 44
+                reflection_rays: 44,
+                sources: vec![src(11, 22), src(5, 6)],
             }
         );
+        assert_eq!(a.rays_per_hit(), 22.0 / 33.0);
+        assert_eq!(Counters::default().rays_per_hit(), 0.0);
+    }
+
+    #[test]
+    fn table1_shows_the_papers_columns_and_the_rays_saved() {
+        let c = Counters {
+            diffuse_hits: 414_089,
+            shadow_rays: 19_179_896,
+            sources: vec![
+                SourceCount {
+                    hits: 10,
+                    shadow_rays: 19_000_000,
+                },
+                SourceCount {
+                    hits: 3,
+                    shadow_rays: 179_000,
+                },
+                SourceCount {
+                    hits: 1,
+                    shadow_rays: 896,
+                },
+            ],
+            ..Default::default()
+        };
+        let names = [
+            ("A".into(), "spot".into()),
+            ("p1".into(), "patch".into()),
+            ("p2".into(), "patch".into()),
+        ];
+        let base = Baseline {
+            method: "norm".into(),
+            diffuse_hits: 414_326,
+            shadow_rays: 41_708_468,
+        };
+        let t = table1("room", "local", &c, &names, Some(&base));
+        // The paper's Table 1, Fig. 8a vs 9a: 54 % saved.
+        assert!(t.contains("% Shadow rays saved"));
+        let local = t.lines().find(|l| l.starts_with("local")).unwrap();
+        let cols: Vec<&str> = local.split_whitespace().collect();
+        assert_eq!(cols, ["local", "414089", "19179896", "46.3", "54"]);
+        let norm = t.lines().find(|l| l.starts_with("norm")).unwrap();
+        assert!(norm
+            .split_whitespace()
+            .eq(["norm", "414326", "41708468", "100.7", "0"]));
+        // Radiant patches are summed in one row.
+        assert!(t.contains("2 radiant patches"), "{t}");
+        assert!(
+            t.lines().any(|l| l.split_whitespace().collect::<Vec<_>>()
+                == ["2", "radiant", "patches", "patch", "4", "179896", "0.43"]),
+            "{t}"
+        );
+        // Without a baseline, nothing is claimed saved.
+        let t = table1("room", "local", &c, &names, None);
+        assert!(t
+            .lines()
+            .any(|l| l.starts_with("local") && l.trim_end().ends_with('-')));
     }
 
     #[test]

@@ -53,6 +53,7 @@ pub fn scene_with(
         shapes: vec![],
         bsdfs: vec![],
         lights: vec![],
+        light_ids: vec![],
         sensors: vec![],
     };
     for (i, (mesh, kind)) in shapes.into_iter().enumerate() {
@@ -89,4 +90,29 @@ pub fn mesh_data(name: &str) -> PathBuf {
 /// The Newell teapot as the paper room uses it.
 pub fn teapot_bpt() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/paper-room/teapot.bpt")
+}
+
+/// A perspective sensor at `origin` looking at `target` (up +y, or +z when looking
+/// along y), horizontal field of view `fov` degrees, `w x h` pixels.
+pub fn looking(origin: glam::Vec3, target: glam::Vec3, fov: f32, w: u32, h: u32) -> crate::scene::Sensor {
+    use glam::{Mat4, Vec3};
+    let dir = (target - origin).normalize();
+    let up = if dir.y.abs() > 0.9 { Vec3::Z } else { Vec3::Y };
+    let left = up.cross(dir).normalize();
+    let up = dir.cross(left);
+    crate::scene::Sensor {
+        to_world: Mat4::from_cols(
+            left.extend(0.0),
+            up.extend(0.0),
+            dir.extend(0.0),
+            origin.extend(1.0),
+        ),
+        fov,
+        fov_axis: crate::scene::FovAxis::X,
+        width: w,
+        height: h,
+        near_clip: 1e-3,
+        far_clip: 1e4,
+        spp: None,
+    }
 }

@@ -69,6 +69,8 @@ fn point_light_on_a_plane_renders_the_closed_form_radiance() {
         "4",
         "--filter",
         "box",
+        "--method",
+        "direct",
         "-q",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -108,6 +110,8 @@ fn the_same_seed_gives_the_same_image_with_one_or_two_threads() {
             "7",
             "--threads",
             threads,
+            "--method",
+            "direct",
             "-q",
         ]);
         assert!(o.status.success(), "{}", stderr(&o));
@@ -130,6 +134,8 @@ fn stats_json_has_the_documented_keys() {
         "2",
         "--stats",
         &s(&stats),
+        "--method",
+        "direct",
         "-q",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -142,6 +148,14 @@ fn stats_json_has_the_documented_keys() {
     for k in ["total", "load", "accel", "render"] {
         assert!(j["time_s"][k].as_f64().unwrap() >= 0.0, "time_s.{k}");
     }
+    assert_eq!(j["shadow_rays_per_hit"], 1.0);
+    // Per source: the one light, with a name and its rays.
+    let src = &j["sources"][0];
+    assert_eq!(
+        (src["kind"].as_str(), src["shadow_rays"].as_u64()),
+        (Some("point"), Some(pixels))
+    );
+    assert_eq!(src["rays_per_hit"], 1.0);
     assert!(out.exists());
 }
 
@@ -206,14 +220,149 @@ fn bad_input_gives_one_clear_error_and_exit_code_2() {
     expect_error(&["compare", "a.exr", "b.exr"], "a.exr");
 }
 
+/// On the unshadowed plane every method gives the closed form (up to the mesh's
+/// interpolation), and local casts no shadow ray: the gradient criterion sees the
+/// light fully visible everywhere. Norm casts one per hit.
 #[test]
-fn methods_of_later_passes_say_they_are_not_available_yet() {
+fn every_method_renders_the_plane_and_local_casts_no_rays_where_nothing_shadows() {
     let d = tmp();
     let scene = write_scene(d.path(), PLANE_SCENE);
-    let out = s(&d.path().join("x.png"));
-    for m in ["norm", "local", "global"] {
-        expect_error(&["render", &s(&scene), "-o", &out, "--method", m], m);
+    let expect = 0.5 / std::f32::consts::PI * 10.0 / 4.0;
+    let mut rays = std::collections::BTreeMap::new();
+    for m in ["twopass", "norm", "local", "global"] {
+        let (out, stats) = (
+            d.path().join(format!("{m}.exr")),
+            d.path().join(format!("{m}.json")),
+        );
+        let o = radtrace(&[
+            "render",
+            &s(&scene),
+            "-o",
+            &s(&out),
+            "--method",
+            m,
+            "--spp",
+            "2",
+            "-D",
+            "res=17",
+            "--filter",
+            "box",
+            "--mesh-size",
+            "0.1",
+            "--stats",
+            &s(&stats),
+            "-q",
+        ]);
+        assert!(o.status.success(), "{m}: {}", stderr(&o));
+        let img = radtrace::io::read_image(&out).unwrap();
+        let centre = img.pixels[8 * 17 + 8].x;
+        assert!(
+            (centre - expect).abs() < 0.01 * expect,
+            "{m}: {centre} vs {expect}"
+        );
+        let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+        rays.insert(m, j["shadow_rays"].as_u64().unwrap());
+        if m == "local" {
+            assert_eq!(j["selection"]["criteria"]["rejected_by"]["gradient"], 1, "{j}");
+        }
     }
+    assert_eq!(rays["twopass"], 0);
+    assert_eq!(rays["local"], 0);
+    assert_eq!(rays["norm"], 17 * 17 * 2);
+    assert_eq!(rays["global"], rays["norm"]);
+}
+
+#[test]
+fn stats_table_and_selection_map_are_written() {
+    let d = tmp();
+    let scene = write_scene(d.path(), PLANE_SCENE);
+    let norm_stats = d.path().join("norm.json");
+    let base = ["render", &s(&scene), "--spp", "1", "-D", "res=9", "-q"];
+    let o = radtrace(
+        &[
+            &base[..],
+            &[
+                "-o",
+                &s(&d.path().join("n.png")),
+                "--method",
+                "norm",
+                "--stats",
+                &s(&norm_stats),
+            ],
+        ]
+        .concat(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let map = d.path().join("map.png");
+    let o = radtrace(
+        &[
+            &base[..],
+            &[
+                "-o",
+                &s(&d.path().join("l.png")),
+                "--stats-table",
+                "--baseline",
+                &s(&norm_stats),
+                "--selection-map",
+                &s(&map),
+            ],
+        ]
+        .concat(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let table = String::from_utf8_lossy(&o.stdout);
+    assert!(table.contains("No. of diffuse hits"), "{table}");
+    let local = table
+        .lines()
+        .find(|l| l.starts_with("local"))
+        .expect("a local row");
+    // All of norm's 81 rays saved: 100 %.
+    assert!(
+        local.split_whitespace().eq(["local", "81", "0", "0.0", "100"]),
+        "{table}"
+    );
+    assert!(
+        table.lines().any(|l| l.starts_with("norm") && l.contains(" 81 ")),
+        "{table}"
+    );
+    let img = radtrace::io::read_image(&map).unwrap();
+    assert_eq!((img.width, img.height), (9, 9));
+    // Nothing ray traced: every floor pixel is the dark grey of "no rays".
+    assert!(
+        img.pixels[40].x > 0.0 && img.pixels[40].x < 0.3,
+        "{:?}",
+        img.pixels[40]
+    );
+    // A bad baseline is one clear error.
+    std::fs::write(d.path().join("bad.json"), "{\"x\": 1}").unwrap();
+    expect_error(
+        &[
+            &base[..],
+            &[
+                "-o",
+                &s(&d.path().join("l.png")),
+                "--baseline",
+                &s(&d.path().join("bad.json")),
+            ],
+        ]
+        .concat(),
+        "bad.json: no 'diffuse_hits' count",
+    );
+    expect_error(
+        &[
+            &base[..],
+            &[
+                "-o",
+                &s(&d.path().join("l.png")),
+                "--method",
+                "direct",
+                "--selection-map",
+                &s(&map),
+            ],
+        ]
+        .concat(),
+        "--selection-map",
+    );
 }
 
 #[test]

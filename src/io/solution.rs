@@ -1,14 +1,14 @@
 //! The solution file: the view-independent result of pass 1, saved once and reused
 //! for any view (`radtrace solve`, `radtrace render --solution`).
 //!
-//! # Format (version 1)
+//! # Format (version 2)
 //!
 //! All integers are little-endian.
 //!
 //! | offset | size | what |
 //! | ---: | ---: | --- |
 //! | 0 | 18 | magic: `RADTRACE-SOLUTION\n` |
-//! | 18 | 4 | format version, `u32` (1) |
+//! | 18 | 4 | format version, `u32` (2; version 1 let radiant patches evict lights from the lists) |
 //! | 22 | 8 | scene fingerprint, `u64` ([`scene_fingerprint`]) |
 //! | 30 | 8 | payload length in bytes, `u64` |
 //! | 38 | 4 | checksum, `u32`: CRC-32 (IEEE) of bytes 18..38 followed by the payload |
@@ -56,7 +56,7 @@ use crate::{Error, Result};
 pub const MAGIC: &[u8; 18] = b"RADTRACE-SOLUTION\n";
 
 /// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 
 /// Bytes before the payload: magic, version, fingerprint, length, checksum.
 const HEADER_LEN: usize = MAGIC.len() + 4 + 8 + 8 + 4;
@@ -591,6 +591,7 @@ mod tests {
                 position: Vec3::new(0.1, 0.2, 0.6),
                 intensity: Vec3::new(3.0, 2.0, 1.0),
             }],
+            light_ids: vec![],
             sensors: vec![],
         }
     }
@@ -697,7 +698,7 @@ mod tests {
 
         // The header, field by field.
         assert_eq!(&bytes[..18], b"RADTRACE-SOLUTION\n");
-        assert_eq!(&bytes[18..22], &[1, 0, 0, 0]);
+        assert_eq!(&bytes[18..22], &[2, 0, 0, 0]);
         assert_eq!(
             u64::from_le_bytes(bytes[22..30].try_into().unwrap()),
             scene_fingerprint(scene)
@@ -893,15 +894,16 @@ mod tests {
     #[test]
     fn another_version_is_refused_by_number() {
         let (dir, _path, mut bytes) = saved("box.rts");
-        bytes[18..22].copy_from_slice(&2u32.to_le_bytes());
-        let msg = load_err(dir.path(), "v2.rts", &bytes);
+        // Version 1 files (lights could be evicted from the lists) are refused.
+        bytes[18..22].copy_from_slice(&1u32.to_le_bytes());
+        let msg = load_err(dir.path(), "v1.rts", &bytes);
         assert!(
-            msg.ends_with("made by another version of radtrace (format 2, this one reads 1)"),
+            msg.ends_with("made by another version of radtrace (format 1, this one reads 2)"),
             "{msg}"
         );
         // Even with nothing after the version field.
         let msg = load_err(dir.path(), "v7.rts", &[&MAGIC[..], &7u32.to_le_bytes()].concat());
-        assert!(msg.contains("(format 7, this one reads 1)"), "{msg}");
+        assert!(msg.contains("(format 7, this one reads 2)"), "{msg}");
     }
 
     #[test]

@@ -57,6 +57,17 @@ impl Camera {
         }
     }
 
+    /// The eye (centre of projection).
+    pub fn eye(&self) -> Vec3 {
+        self.origin
+    }
+
+    /// Pixels per unit length at unit distance in front of the eye, on the optical
+    /// axis: how large something looks on the film.
+    pub fn pixels_per_radian(&self) -> f32 {
+        0.5 * self.height / self.tan_y
+    }
+
     /// Projects a world point to film coordinates in pixels; `None` behind the camera.
     pub fn project(&self, p: Vec3) -> Option<(f32, f32)> {
         let local = self.to_world.inverse().transform_point3(p);

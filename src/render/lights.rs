@@ -34,8 +34,11 @@ pub struct AreaEmitter {
     cdf: Vec<f32>,
     /// Total area.
     pub area: f32,
-    /// Emitted radiance.
+    /// Emitted radiance (of a light source: the same everywhere).
     pub radiance: Rgb,
+    /// For a radiant patch sampled like a light (paper Sect. 6): the radiance at the
+    /// corners of each triangle, interpolated linearly; empty for light sources.
+    pub corner_radiance: Vec<[Rgb; 3]>,
 }
 
 /// A light source ready for sampling.
@@ -112,32 +115,8 @@ impl SampledLight {
             }
             Light::Area { shape, radiance } => {
                 let mesh = &scene.shapes[shape as usize].mesh;
-                let mut tris = Vec::new();
-                let mut normals = Vec::new();
-                let mut cdf = Vec::new();
-                let mut total = 0.0;
-                for t in 0..mesh.triangle_count() {
-                    let [a, b, c] = mesh.triangle(t);
-                    let n = (b - a).cross(c - a);
-                    let area = 0.5 * n.length();
-                    if !(area > 0.0) {
-                        continue;
-                    }
-                    total += area;
-                    tris.push([a, b, c]);
-                    normals.push(n.normalize());
-                    cdf.push(total);
-                }
-                for c in &mut cdf {
-                    *c /= total;
-                }
-                SampledLight::Area(AreaEmitter {
-                    tris,
-                    normals,
-                    cdf,
-                    area: total,
-                    radiance,
-                })
+                let tris = (0..mesh.triangle_count()).map(|t| mesh.triangle(t));
+                SampledLight::Area(AreaEmitter::new(tris, radiance, Vec::new()))
             }
         }
     }
@@ -195,6 +174,46 @@ impl SampledLight {
 }
 
 impl AreaEmitter {
+    /// An emitter over `tris` (emitting on the side their winding faces) with
+    /// radiance `radiance`, or, when `corner_radiance` is not empty, the radiance
+    /// given at each triangle's corners. Zero-area triangles are dropped.
+    pub fn new(
+        tris: impl IntoIterator<Item = [Vec3; 3]>,
+        radiance: Rgb,
+        corner_radiance: Vec<[Rgb; 3]>,
+    ) -> Self {
+        let mut kept = Vec::new();
+        let mut normals = Vec::new();
+        let mut cdf = Vec::new();
+        let mut corners = Vec::new();
+        let mut total = 0.0;
+        for (k, [a, b, c]) in tris.into_iter().enumerate() {
+            let n = (b - a).cross(c - a);
+            let area = 0.5 * n.length();
+            if !(area > 0.0) {
+                continue;
+            }
+            total += area;
+            kept.push([a, b, c]);
+            normals.push(n.normalize());
+            cdf.push(total);
+            if let Some(cr) = corner_radiance.get(k) {
+                corners.push(*cr);
+            }
+        }
+        for c in &mut cdf {
+            *c /= total;
+        }
+        AreaEmitter {
+            tris: kept,
+            normals,
+            cdf,
+            area: total,
+            radiance,
+            corner_radiance: corners,
+        }
+    }
+
     /// Uniform sample of the surface by area, mapped from `u` so that stratified `u`
     /// gives well-spread points.
     fn sample(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
@@ -221,11 +240,18 @@ impl AreaEmitter {
         }
         let dir = d / dist;
         let cos_l = -dir.dot(self.normals[i]);
-        (cos_l > 0.0).then(|| LightSample {
+        if !(cos_l > 0.0) {
+            return None;
+        }
+        let radiance = match self.corner_radiance.get(i) {
+            Some([ra, rb, rc]) => *ra * (1.0 - b1 - b2) + *rb * b1 + *rc * b2,
+            None => self.radiance,
+        };
+        Some(LightSample {
             point,
             dir,
             dist,
-            value: self.radiance * (cos_l * self.area / dist2),
+            value: radiance * (cos_l * self.area / dist2),
             on_surface: true,
         })
     }
@@ -275,17 +301,8 @@ mod tests {
             [a, a + Vec3::Y, a + Vec3::X + Vec3::Y],
             [a, a + Vec3::X + Vec3::Y, a + Vec3::X],
         ];
-        let normals = tris
-            .iter()
-            .map(|[a, b, c]| (*b - *a).cross(*c - *a).normalize())
-            .collect();
-        let e = AreaEmitter {
-            tris,
-            normals,
-            cdf: vec![0.5, 1.0],
-            area: 1.0,
-            radiance: Vec3::ONE,
-        };
+        let e = AreaEmitter::new(tris.clone(), Vec3::ONE, Vec::new());
+        assert_eq!((e.cdf.clone(), e.area), (vec![0.5, 1.0], 1.0));
         // Mean position of a grid of samples is the centre.
         let n = 64;
         let mut mean = Vec3::ZERO;
@@ -299,5 +316,23 @@ mod tests {
         assert!((mean - Vec3::new(0.5, 0.5, 1.0)).length() < 2e-3, "{mean:?}");
         // Seen from above (behind the emitting side) it sends nothing.
         assert!(e.sample(Vec3::new(0.5, 0.5, 2.0), Vec2::splat(0.3)).is_none());
+        // With radiance at the corners (a radiant patch), a sample carries the
+        // linear interpolation: here radiance = x, so its mean over the square is 1/2.
+        let x = |p: Vec3| Vec3::splat(p.x);
+        let corners = tris.iter().map(|t| t.map(x)).collect();
+        let e = AreaEmitter::new(tris, Vec3::ZERO, corners);
+        let below = Vec3::new(0.5, 0.5, 0.0);
+        let mut sum = 0.0;
+        for i in 0..n {
+            for j in 0..n {
+                let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                let s = e.sample(below, u).unwrap();
+                let cos = s.dir.dot(Vec3::Z);
+                let radiance = s.value.x * s.dist * s.dist / (cos * e.area);
+                assert!((radiance - s.point.x).abs() < 1e-4, "{radiance} at {:?}", s.point);
+                sum += radiance;
+            }
+        }
+        assert!((sum / (n * n) as f32 - 0.5).abs() < 1e-3);
     }
 }

@@ -2,7 +2,9 @@
 //! shading at the hit points, specular reflection rays, and pixel reconstruction.
 //!
 //! Methods (`--method`) share this code and differ in where direct light comes from:
-//! `direct` ray traces every light source at every diffuse hit (no radiosity).
+//! `direct` ray traces every light source at every diffuse hit (no radiosity); the
+//! others shade from a radiosity solution and ray trace the sources a
+//! [`crate::selection::Selection`] picked for the patch hit.
 
 pub mod bsdf;
 pub mod camera;
@@ -18,8 +20,8 @@ use rayon::prelude::*;
 
 use crate::accel::Accel;
 use crate::io::Image;
-use crate::radiosity::Solution;
 use crate::scene::Scene;
+use crate::selection::Selection;
 use crate::stats::Counters;
 use crate::{Error, Result};
 
@@ -38,11 +40,12 @@ pub enum Method {
     Direct,
     /// Standard two-pass radiosity: shading from the radiosity mesh alone (Fig. 7).
     Twopass,
-    /// Radiosity for indirect light, every light source ray traced at fixed counts (Fig. 8). Not yet available.
+    /// Radiosity for indirect light, every light source ray traced at fixed counts:
+    /// the fully sampled "norm" picture (Fig. 8).
     Norm,
-    /// Per-patch source selection (Fig. 9). Not yet available.
+    /// Per-patch source selection with the five criteria of Sect. 3 (Fig. 9).
     Local,
-    /// The strongest sources ray traced everywhere. Not yet available.
+    /// The `--global-sources` strongest sources ray traced everywhere.
     Global,
 }
 
@@ -92,23 +95,21 @@ pub struct Output {
 }
 
 /// Renders one view of `scene`. `progress` (if given) advances by one per image row.
-/// `solution` is the radiosity solution, required by every method but `direct`.
+/// `selection` (made by [`crate::selection::select`] from a radiosity solution) is
+/// required by every method but `direct`, which ignores it.
 pub fn render(
     scene: &Scene,
     accel: &dyn Accel,
     settings: &Settings,
-    solution: Option<&Solution>,
+    selection: Option<&Selection>,
     progress: Option<&ProgressBar>,
 ) -> Result<Output> {
-    let tracer = match (settings.method, solution) {
+    let tracer = match (settings.method, selection) {
         (Method::Direct, _) => Tracer::new(scene, accel, settings),
-        (Method::Twopass, Some(sol)) => Tracer::with_radiosity(scene, accel, settings, sol),
-        (Method::Twopass, None) => {
-            return Err(Error::Usage("--method twopass needs a radiosity solution".into()))
-        }
-        (m, _) => {
+        (_, Some(sel)) => Tracer::with_selection(scene, accel, settings, sel),
+        (m, None) => {
             return Err(Error::Usage(format!(
-                "--method {} (source selection) is not available in this version of radtrace yet; use --method direct or twopass",
+                "--method {} needs a radiosity solution and a source selection",
                 m.name()
             )))
         }
@@ -121,7 +122,7 @@ pub fn render(
     let rows: Vec<(Vec<FilmSample>, Counters)> = (0..h)
         .into_par_iter()
         .map(|y| {
-            let mut counters = Counters::default();
+            let mut counters = Counters::with_sources(tracer.source_count());
             let mut samples = Vec::with_capacity((w * settings.spp) as usize);
             for x in 0..w {
                 let pixel_seed = pixel_seed(settings.seed, settings.view as u64, x, y);

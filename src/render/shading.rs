@@ -6,8 +6,8 @@ use super::lights::SampledLight;
 use super::{hash32, Settings};
 use crate::accel::{Accel, Hit, Ray};
 use crate::mesh::RadiosityMesh;
-use crate::radiosity::Solution;
 use crate::scene::{Bsdf, Rgb, Scene};
+use crate::selection::Selection;
 use crate::stats::Counters;
 
 /// The local geometry at a ray hit.
@@ -92,11 +92,12 @@ pub fn ray_epsilon(p: Vec3) -> f32 {
 enum Diffuse<'a> {
     /// Shadow rays to every light source (`--method direct`).
     Direct,
-    /// The radiosity solution alone, interpolated (`--method twopass`).
-    Radiosity {
+    /// The radiosity solution's stored radiosity, interpolated, plus shadow rays to
+    /// the sources a selection picked for the patch hit (`twopass`, `norm`, `local`,
+    /// `global`).
+    Selected {
         mesh: &'a RadiosityMesh,
-        /// Total reflected radiosity per mesh vertex.
-        total: Vec<Rgb>,
+        selection: &'a Selection<'a>,
     },
 }
 
@@ -104,7 +105,8 @@ enum Diffuse<'a> {
 pub struct Tracer<'a> {
     scene: &'a Scene,
     accel: &'a dyn Accel,
-    lights: Vec<SampledLight>,
+    /// The ray-traced sources: the scene's lights (`direct`) or the selection's.
+    sources: std::borrow::Cow<'a, [SampledLight]>,
     area_samples: u32,
     max_depth: u32,
     diffuse: Diffuse<'a>,
@@ -112,32 +114,42 @@ pub struct Tracer<'a> {
 
 impl<'a> Tracer<'a> {
     /// A tracer for `scene` with the sampling counts of `settings` that computes
-    /// direct light with shadow rays.
+    /// direct light with shadow rays to every light.
     pub fn new(scene: &'a Scene, accel: &'a dyn Accel, settings: &Settings) -> Self {
         Tracer {
             scene,
             accel,
-            lights: SampledLight::prepare_all(scene),
+            sources: SampledLight::prepare_all(scene).into(),
             area_samples: settings.area_samples.max(1),
             max_depth: settings.max_depth,
             diffuse: Diffuse::Direct,
         }
     }
 
-    /// A tracer that shades diffuse surfaces from the radiosity `solution` alone
-    /// (the standard two-pass method, paper Fig. 7).
-    pub fn with_radiosity(
+    /// A tracer that shades diffuse surfaces from a radiosity solution with the
+    /// sources `selection` picked ray traced.
+    pub fn with_selection(
         scene: &'a Scene,
         accel: &'a dyn Accel,
         settings: &Settings,
-        solution: &'a Solution,
+        selection: &'a Selection<'a>,
     ) -> Self {
-        let mut t = Self::new(scene, accel, settings);
-        t.diffuse = Diffuse::Radiosity {
-            mesh: &solution.mesh,
-            total: solution.total(),
-        };
-        t
+        Tracer {
+            scene,
+            accel,
+            sources: selection.emitters.as_slice().into(),
+            area_samples: settings.area_samples.max(1),
+            max_depth: settings.max_depth,
+            diffuse: Diffuse::Selected {
+                mesh: &selection.solution.mesh,
+                selection,
+            },
+        }
+    }
+
+    /// Number of ray-traced sources (the length of [`Counters::sources`]).
+    pub fn source_count(&self) -> usize {
+        self.sources.len()
     }
 
     /// Radiance arriving along `ray` (towards its origin). `depth` counts mirror
@@ -168,10 +180,32 @@ impl<'a> Tracer<'a> {
         if bsdf.kind.has_diffuse() {
             counters.diffuse_hits += 1;
             l += match &self.diffuse {
-                Diffuse::Direct => self.direct_light(&sp, bsdf, cos_v, seed, counters),
-                Diffuse::Radiosity { mesh, total } => {
-                    // Diffuse radiance L = B / pi, B interpolated from the mesh vertices.
-                    mesh.locate(self.scene, &hit, sp.p, sp.front).apply(total) * std::f32::consts::FRAC_1_PI
+                Diffuse::Direct => {
+                    let mut sum = Vec3::ZERO;
+                    for (li, light) in self.sources.iter().enumerate() {
+                        let n = if light.is_area() { self.area_samples } else { 1 };
+                        sum += self.sample_source(li, n, &sp, bsdf, cos_v, seed, counters);
+                    }
+                    sum
+                }
+                Diffuse::Selected { mesh, selection } => {
+                    // Diffuse radiance L = B / pi, B interpolated from the mesh
+                    // vertices, plus the ray-traced sources of the patch.
+                    let interp = mesh.locate(self.scene, &hit, sp.p, sp.front);
+                    let mut sum = interp.apply(&selection.stored) * std::f32::consts::FRAC_1_PI;
+                    let patch = mesh.vertices[interp.vertices[0] as usize].patch;
+                    for pick in selection.picks(patch) {
+                        sum += self.sample_source(
+                            pick.source as usize,
+                            pick.rays,
+                            &sp,
+                            bsdf,
+                            cos_v,
+                            seed,
+                            counters,
+                        );
+                    }
+                    sum
                 }
             };
         }
@@ -189,45 +223,51 @@ impl<'a> Tracer<'a> {
         l
     }
 
-    /// Direct light at `sp` from every light source, by shadow rays: one per point or
-    /// spot light, `area_samples` stratified ones per area light.
-    fn direct_light(
+    /// Direct light at `sp` from ray-traced source `li` with `n` stratified shadow
+    /// rays (a point or spot light takes one whatever `n`).
+    #[allow(clippy::too_many_arguments)]
+    fn sample_source(
         &self,
+        li: usize,
+        n: u32,
         sp: &SurfacePoint,
         bsdf: &Bsdf,
         cos_v: f32,
         seed: u32,
         counters: &mut Counters,
     ) -> Rgb {
-        let mut sum = Vec3::ZERO;
-        for (li, light) in self.lights.iter().enumerate() {
-            let n = if light.is_area() { self.area_samples } else { 1 };
-            let light_seed = hash32(seed ^ (li as u32).wrapping_mul(0x85eb_ca6b));
-            let mut acc = Vec3::ZERO;
-            for k in 0..n {
-                let u = Vec2::new(
-                    sobol_burley::sample(k, 0, light_seed),
-                    sobol_burley::sample(k, 1, light_seed),
-                );
-                let Some(s) = light.sample(sp.p, u) else { continue };
-                let cos_l = sp.ns.dot(s.dir);
-                // No shadow ray towards a light behind the surface (paper Sect. 6).
-                if cos_l <= 0.0 || sp.ng.dot(s.dir) <= 0.0 {
-                    continue;
-                }
-                counters.shadow_rays += 1;
-                let tmax = if s.on_surface {
-                    s.dist * (1.0 - 1e-4)
-                } else {
-                    s.dist
-                };
-                if !self.accel.occluded(&sp.spawn(s.dir, tmax)) {
-                    acc += bsdf.kind.diffuse_brdf(cos_l, cos_v) * s.value * cos_l;
-                }
+        let light = &self.sources[li];
+        let n = if light.is_area() { n.max(1) } else { 1 };
+        let light_seed = hash32(seed ^ (li as u32).wrapping_mul(0x85eb_ca6b));
+        let mut acc = Vec3::ZERO;
+        let mut cast = 0;
+        for k in 0..n {
+            let u = Vec2::new(
+                sobol_burley::sample(k, 0, light_seed),
+                sobol_burley::sample(k, 1, light_seed),
+            );
+            let Some(s) = light.sample(sp.p, u) else { continue };
+            let cos_l = sp.ns.dot(s.dir);
+            // No shadow ray towards a light behind the surface (paper Sect. 6).
+            if cos_l <= 0.0 || sp.ng.dot(s.dir) <= 0.0 {
+                continue;
             }
-            sum += acc / n as f32;
+            cast += 1;
+            let tmax = if s.on_surface {
+                s.dist * (1.0 - 1e-4)
+            } else {
+                s.dist
+            };
+            if !self.accel.occluded(&sp.spawn(s.dir, tmax)) {
+                acc += bsdf.kind.diffuse_brdf(cos_l, cos_v) * s.value * cos_l;
+            }
         }
-        sum
+        counters.shadow_rays += cast;
+        if let Some(c) = counters.sources.get_mut(li) {
+            c.hits += 1;
+            c.shadow_rays += cast;
+        }
+        acc / n as f32
     }
 }
 

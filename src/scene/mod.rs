@@ -106,6 +106,17 @@ pub enum Light {
     },
 }
 
+impl Light {
+    /// The kind as a word: "point", "spot" or "area".
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Light::Point { .. } => "point",
+            Light::Spot { .. } => "spot",
+            Light::Area { .. } => "area",
+        }
+    }
+}
+
 /// A shape instance: its world-space mesh, material and (optional) area emitter.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Shape {
@@ -184,6 +195,19 @@ impl Sensor {
 }
 
 impl Scene {
+    /// A name for light `i` in tables and messages: its `id` in the scene file, the
+    /// name of its shape for an area light, else its kind and index.
+    pub fn light_name(&self, i: usize) -> String {
+        if let Some(Some(id)) = self.light_ids.get(i) {
+            return id.clone();
+        }
+        match self.lights.get(i) {
+            Some(Light::Area { shape, .. }) => self.shapes[*shape as usize].name.clone(),
+            Some(l) => format!("{} {i}", l.kind()),
+            None => format!("light {i}"),
+        }
+    }
+
     /// View (sensor) number `view`, or a usage error naming the scene and its views.
     pub fn sensor(&self, view: usize) -> crate::Result<&Sensor> {
         self.sensors.get(view).ok_or_else(|| {
@@ -207,6 +231,9 @@ pub struct Scene {
     pub bsdfs: Vec<Bsdf>,
     /// All light sources (point, spot, and one per emitting shape).
     pub lights: Vec<Light>,
+    /// The `id` of each point or spot light in the scene file, where it has one
+    /// (indexed like `lights`; may be shorter). See [`Scene::light_name`].
+    pub light_ids: Vec<Option<String>>,
     /// Views, in file order.
     pub sensors: Vec<Sensor>,
 }

@@ -368,6 +368,7 @@ impl Loader {
                 shapes: Vec::new(),
                 bsdfs: Vec::new(),
                 lights: Vec::new(),
+                light_ids: Vec::new(),
                 sensors: Vec::new(),
             },
             ids: HashMap::new(),
@@ -1337,6 +1338,13 @@ impl Loader {
 
     // -------------------------------------------------------------- emitters
 
+    /// Records the `id` of the light just pushed (for tables and messages).
+    fn name_light(&mut self, c: Node) {
+        let i = self.scene.lights.len() - 1;
+        self.scene.light_ids.resize(i, None);
+        self.scene.light_ids.push(c.attribute("id").map(str::to_owned));
+    }
+
     fn emitter(&mut self, s: Src, c: Node) -> Result<()> {
         self.check_attrs(s, c, &["type", "id", "name"]);
         let ty = self.attr_req(s, c, "type")?;
@@ -1363,6 +1371,7 @@ impl Loader {
                     self.warn(s, c, "point light with zero intensity");
                 }
                 self.scene.lights.push(Light::Point { position, intensity });
+                self.name_light(c);
             }
             "spot" => {
                 let obj = self.collect(s, c, "emitter 'spot'".into())?;
@@ -1400,6 +1409,7 @@ impl Loader {
                     cutoff_angle: cutoff.to_radians(),
                     beam_width: beam.to_radians(),
                 });
+                self.name_light(c);
             }
             "area" => {
                 return Err(s.err(c, "an 'area' emitter must be nested inside a <shape>"));

@@ -1,0 +1,647 @@
+//! Source selection (paper Sect. 3 and 6): which of the sources kept apart on a patch
+//! are ray traced when the patch is hit, and with how many shadow rays.
+//!
+//! The radiosity pass leaves on each patch a list of sources with their stored,
+//! per-vertex contributions ([`crate::radiosity::ListEntry`]). A *selected* source is
+//! sampled with shadow rays at render time; every other listed source adds its stored
+//! contribution, interpolated. So each source reaches a point by exactly one route,
+//! and the whole non-ray-traced part of a vertex's radiosity is one number,
+//! [`Selection::stored`].
+//!
+//! The render methods are selections:
+//! - `twopass`: nothing selected (paper Fig. 7);
+//! - `norm`: every light selected on every patch at fixed counts, 1 ray per point or
+//!   spot light and `--area-samples` per area light (Fig. 8);
+//! - `local`: per patch (or per object), the listed sources that pass all five
+//!   criteria of Sect. 3 (Fig. 9), see [`judge`];
+//! - `global`: the `--global-sources` strongest sources, wherever they are listed.
+//!
+//! A selected radiant patch is sampled like an area light whose radiance is the
+//! patch's radiosity / pi, interpolated over its elements.
+
+use std::collections::BTreeMap;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::accel::Accel;
+use crate::io::Image;
+use crate::radiosity::{light_power, ListEntry, Solution, SourceId};
+use crate::render::lights::{AreaEmitter, SampledLight};
+use crate::render::{Camera, Method};
+use crate::scene::{Light, Rgb, Scene};
+use crate::{Error, Result};
+
+/// The unit a local selection is made for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SelectPer {
+    /// Each patch chooses its own sources.
+    #[default]
+    Patch,
+    /// All patches of an object (a shape of the scene) share one choice: a source
+    /// chosen on any of them is ray traced on all of them, so patch boundaries
+    /// cannot show (paper Sect. 3).
+    Object,
+}
+
+/// Thresholds of the selection criteria (paper Sect. 3) and ray counts.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct SelectSettings {
+    /// Per patch or per object.
+    pub per: SelectPer,
+    /// Radiance criterion: the source's unoccluded reflected radiosity must reach
+    /// this fraction of the patch's total radiosity (at the vertex where each is
+    /// largest). A shadow of a weaker source has less contrast than this.
+    pub radiance_threshold: f32,
+    /// Reflectivity criterion: the patch's diffuse reflectance (mean of RGB) must
+    /// reach this.
+    pub reflectivity_threshold: f32,
+    /// Gradient criterion: the source's visibility (occluded / unoccluded, 0 where it
+    /// does not reach) must vary across the patch's vertices by more than this.
+    pub gradient_threshold: f32,
+    /// Solid-angle criterion: a source seen under more than this solid angle
+    /// (steradians, area-weighted mean over the patch's vertices) is left to the
+    /// radiosity.
+    pub max_solid_angle: f32,
+    /// Rays for a hemisphere: an area source seen under solid angle Omega gets
+    /// max(1, round(Omega / 2pi x this)) rays, at most `area_samples`.
+    pub hemisphere_rays: u32,
+    /// View criterion: a patch whose elements project to fewer pixels than this
+    /// (seen from the camera at its nearest vertex) is left to the mesh.
+    pub view_threshold: f32,
+    /// Whether the view criterion is applied (off for animation: selections must
+    /// not change between frames).
+    pub view_criterion: bool,
+    /// Rays per area light in `norm` and `global`, and the most `local` casts.
+    pub area_samples: u32,
+    /// Sources ray traced by `global`.
+    pub global_sources: u32,
+}
+
+impl Default for SelectSettings {
+    fn default() -> Self {
+        SelectSettings {
+            per: SelectPer::Patch,
+            radiance_threshold: 0.1,
+            reflectivity_threshold: 0.05,
+            gradient_threshold: 0.02,
+            max_solid_angle: 0.25,
+            hemisphere_rays: 4096,
+            view_threshold: 2.0,
+            view_criterion: true,
+            area_samples: 64,
+            global_sources: 4,
+        }
+    }
+}
+
+/// Where the view criterion looks from: the camera's eye and its pixels per radian.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ViewScale {
+    /// The eye.
+    pub eye: Vec3,
+    /// Pixels per unit length at unit distance, on the optical axis.
+    pub pixels_per_radian: f32,
+}
+
+impl ViewScale {
+    /// The view scale of a camera.
+    pub fn of(camera: &Camera) -> Self {
+        ViewScale {
+            eye: camera.eye(),
+            pixels_per_radian: camera.pixels_per_radian(),
+        }
+    }
+}
+
+/// The five criteria's verdicts for one source on one patch, with the measures
+/// they were made from.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+pub struct Criteria {
+    /// Radiance: the source brings enough light.
+    pub radiance: bool,
+    /// Reflectivity: the patch reflects enough diffusely.
+    pub reflectivity: bool,
+    /// Gradient: the source is partly visible across the patch (a shadow edge).
+    pub gradient: bool,
+    /// Solid angle: the source is small enough to be sampled with rays.
+    pub solid_angle: bool,
+    /// View: the patch's elements are large on screen.
+    pub view: bool,
+    /// Shadow rays per hit if selected.
+    pub rays: u32,
+    /// Largest unoccluded contribution / largest total radiosity on the patch.
+    pub share: f32,
+    /// Spread of the visibility over the patch's vertices (0..1).
+    pub visibility_spread: f32,
+    /// Solid angle of the source (steradians), area-weighted mean over the vertices.
+    pub solid_angle_sr: f32,
+    /// Element size on screen (pixels); infinite without a view.
+    pub element_pixels: f32,
+}
+
+impl Criteria {
+    /// Whether all criteria select the source.
+    pub fn selected(&self) -> bool {
+        self.radiance && self.reflectivity && self.gradient && self.solid_angle && self.view
+    }
+}
+
+/// A source ray traced on a patch.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Pick {
+    /// Index into [`Selection::sources`].
+    pub source: u32,
+    /// Shadow rays per hit.
+    pub rays: u32,
+}
+
+/// The choice of ray-traced sources for every patch of a radiosity solution.
+pub struct Selection<'a> {
+    /// The solution chosen from.
+    pub solution: &'a Solution,
+    /// The method it implements.
+    pub method: Method,
+    /// The ray-traced sources: every light of the scene first (index = light index),
+    /// then the radiant patches selected anywhere.
+    pub sources: Vec<SourceId>,
+    /// The sources prepared for sampling, as `sources`.
+    pub emitters: Vec<SampledLight>,
+    /// Per vertex: the radiosity not ray traced (general radiosity plus the stored
+    /// contributions of the listed sources not selected on its patch).
+    pub stored: Vec<Rgb>,
+    /// Per patch, offsets into `picks`.
+    offsets: Vec<u32>,
+    picks: Vec<Pick>,
+    /// For `local`: per patch, the verdicts on each listed source.
+    pub criteria: Vec<Vec<(SourceId, Criteria)>>,
+}
+
+impl Selection<'_> {
+    /// The sources ray traced on patch `p`.
+    pub fn picks(&self, p: u32) -> &[Pick] {
+        let (a, b) = (self.offsets[p as usize], self.offsets[p as usize + 1]);
+        &self.picks[a as usize..b as usize]
+    }
+
+    /// Shadow rays per hit on patch `p` (all sources together).
+    pub fn rays(&self, p: u32) -> u32 {
+        self.picks(p).iter().map(|k| k.rays).sum()
+    }
+
+    /// A name for ray-traced source `i`.
+    pub fn source_name(&self, scene: &Scene, i: usize) -> String {
+        match self.sources[i] {
+            SourceId::Light(l) => scene.light_name(l as usize),
+            SourceId::Patch(p) => patch_name(scene, self.solution, p),
+        }
+    }
+
+    /// Number of (patch, source) pairs ray traced.
+    pub fn pick_count(&self) -> usize {
+        self.picks.len()
+    }
+}
+
+/// "shape name, patch k" for patch `p` of the solution's mesh.
+pub fn patch_name(scene: &Scene, sol: &Solution, p: u32) -> String {
+    let mp = &sol.mesh.patches[p as usize];
+    let side = if p >= sol.mesh.front_patches {
+        " (back)"
+    } else {
+        ""
+    };
+    format!(
+        "{} patch {}{side}",
+        scene.shapes[mp.shape as usize].name, mp.local
+    )
+}
+
+fn mean(c: Rgb) -> f32 {
+    (c.x + c.y + c.z) / 3.0
+}
+
+/// Solid angle of triangle `t` seen from `x` (Van Oosterom & Strackee 1983).
+pub fn triangle_solid_angle(x: Vec3, t: &[Vec3; 3]) -> f32 {
+    let (a, b, c) = (t[0] - x, t[1] - x, t[2] - x);
+    let (la, lb, lc) = (a.length(), b.length(), c.length());
+    let num = a.dot(b.cross(c)).abs();
+    let den = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
+    2.0 * num.atan2(den)
+}
+
+/// Solid angle under which `x` sees the front of a set of triangles.
+fn solid_angle(x: Vec3, tris: &[[Vec3; 3]]) -> f32 {
+    tris.iter()
+        .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]).dot(x - t[0]) > 0.0)
+        .map(|t| triangle_solid_angle(x, t))
+        .sum()
+}
+
+/// The triangles of a source (empty for point and spot lights).
+fn source_triangles(scene: &Scene, sol: &Solution, s: SourceId) -> Vec<[Vec3; 3]> {
+    match s {
+        SourceId::Light(l) => match scene.lights[l as usize] {
+            Light::Area { shape, .. } => {
+                let m = &scene.shapes[shape as usize].mesh;
+                (0..m.triangle_count()).map(|t| m.triangle(t)).collect()
+            }
+            _ => Vec::new(),
+        },
+        SourceId::Patch(p) => sol
+            .mesh
+            .element_triangles(p)
+            .iter()
+            .map(|t| t.map(|v| sol.mesh.vertices[v as usize].p))
+            .collect(),
+    }
+}
+
+/// Whether a source is a point (point or spot light: one ray, no solid angle).
+fn is_point(scene: &Scene, s: SourceId) -> bool {
+    matches!(s, SourceId::Light(l) if !matches!(scene.lights[l as usize], Light::Area { .. }))
+}
+
+/// What the criteria are judged against: the scene, the solution with its total
+/// radiosity per vertex, the thresholds and the camera (for the view criterion).
+pub struct Judge<'a> {
+    /// The scene.
+    pub scene: &'a Scene,
+    /// The radiosity solution.
+    pub sol: &'a Solution,
+    /// Total radiosity per vertex ([`Solution::total`]).
+    pub total: &'a [Rgb],
+    /// Thresholds.
+    pub settings: &'a SelectSettings,
+    /// The camera, for the view criterion (none: the criterion passes).
+    pub view: Option<&'a ViewScale>,
+}
+
+/// The five criteria of Sect. 3 for the listed source `entry` on patch `p`; `tris`
+/// are the source's triangles (empty for point and spot lights).
+pub fn judge(j: &Judge, p: u32, entry: &ListEntry, tris: &[[Vec3; 3]]) -> Criteria {
+    let (scene, sol, total, settings, view) = (j.scene, j.sol, j.total, j.settings, j.view);
+    let mp = &sol.mesh.patches[p as usize];
+    let first = mp.first_vertex as usize;
+    let verts = &sol.mesh.vertices[first..first + mp.vertex_count as usize];
+    let mut c = Criteria::default();
+
+    // Radiance: the source's light against the patch's, where each is largest.
+    let max_total = total[first..first + verts.len()]
+        .iter()
+        .map(|t| mean(*t))
+        .fold(0.0, f32::max);
+    let max_unocc = entry.unoccluded.iter().map(|u| mean(*u)).fold(0.0, f32::max);
+    c.share = if max_total > 0.0 {
+        max_unocc / max_total
+    } else if max_unocc > 0.0 {
+        f32::INFINITY
+    } else {
+        0.0
+    };
+    c.radiance = max_unocc > 0.0 && c.share >= settings.radiance_threshold;
+
+    // Reflectivity.
+    c.reflectivity = mean(mp.reflectance) >= settings.reflectivity_threshold;
+
+    // Gradient: partial visibility across the vertices. A point or spot light that
+    // does not reach a vertex at all counts as invisible there (a spot's cone edge
+    // crossing the patch is as sharp as a shadow); an area source's horizon crossing
+    // the patch is a smooth falloff the mesh represents, so such vertices are skipped.
+    let point = is_point(scene, entry.source);
+    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    for (o, u) in entry.occluded.iter().zip(&entry.unoccluded) {
+        let u = mean(*u);
+        let v = if u > 1e-3 * max_unocc {
+            (mean(*o) / u).clamp(0.0, 1.0)
+        } else if point {
+            0.0
+        } else {
+            continue;
+        };
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    c.visibility_spread = if hi >= lo { hi - lo } else { 0.0 };
+    c.gradient = c.visibility_spread > settings.gradient_threshold;
+
+    // Solid angle: its mean over the patch decides and sets the ray count.
+    if point {
+        c.solid_angle = true;
+        c.rays = 1;
+    } else {
+        let (mut sum, mut area, mut max) = (0.0f32, 0.0f32, 0.0f32);
+        for v in verts {
+            let w = solid_angle(v.q, tris);
+            sum += w * v.area;
+            area += v.area;
+            max = max.max(w);
+        }
+        c.solid_angle_sr = if area > 0.0 { sum / area } else { max };
+        c.solid_angle = c.solid_angle_sr <= settings.max_solid_angle;
+        let rays =
+            (c.solid_angle_sr / (2.0 * std::f32::consts::PI) * settings.hemisphere_rays as f32).round();
+        c.rays = (rays as u32).clamp(1, settings.area_samples.max(1));
+    }
+
+    // View: the size of the patch's elements on screen.
+    c.element_pixels = f32::INFINITY;
+    if let Some(vs) = view {
+        let tri_grid = matches!(
+            mp.grids.first().map(|g| &g.domain),
+            Some(crate::mesh::Domain::Tri(_))
+        );
+        let per = mp.area / mp.element_count.max(1) as f32;
+        let edge = (if tri_grid { 2.0 * per } else { per }).sqrt();
+        let d = verts
+            .iter()
+            .map(|v| (v.p - vs.eye).length())
+            .fold(f32::INFINITY, f32::min);
+        c.element_pixels = if d > 0.0 {
+            edge * vs.pixels_per_radian / d
+        } else {
+            f32::INFINITY
+        };
+    }
+    c.view = !settings.view_criterion || view.is_none() || c.element_pixels >= settings.view_threshold;
+    c
+}
+
+/// Chooses the ray-traced sources of `method` (`twopass`, `norm`, `local` or
+/// `global`) on every patch of `sol`. `view` is the camera for the view criterion.
+pub fn select<'a>(
+    scene: &Scene,
+    sol: &'a Solution,
+    method: Method,
+    settings: &SelectSettings,
+    view: Option<&ViewScale>,
+) -> Result<Selection<'a>> {
+    let mesh = &sol.mesh;
+    let np = mesh.patches.len();
+    let nl = scene.lights.len();
+    let total = sol.total();
+    let area_rays = |s: SourceId| {
+        if is_point(scene, s) {
+            1
+        } else {
+            settings.area_samples.max(1)
+        }
+    };
+    let all_lights: Vec<(SourceId, u32)> = (0..nl as u32)
+        .map(|l| (SourceId::Light(l), area_rays(SourceId::Light(l))))
+        .collect();
+    let mut criteria = Vec::new();
+    let chosen: Vec<Vec<(SourceId, u32)>> = match method {
+        Method::Direct => {
+            return Err(Error::Usage(
+                "--method direct uses no radiosity solution and no selection".into(),
+            ))
+        }
+        Method::Twopass => vec![Vec::new(); np],
+        Method::Norm => {
+            let n = sol.settings.sources_per_patch as usize;
+            if n < nl {
+                return Err(Error::Usage(format!(
+                    "--method norm needs every light kept apart from the general radiosity, but the solution keeps {n} sources per patch and the scene has {nl} lights: solve with --sources-per-patch {nl} or more"
+                )));
+            }
+            vec![all_lights; np]
+        }
+        Method::Global => {
+            // Rank lights by emitted power and radiant patches by reflected power.
+            let mut ranked: Vec<(f64, SourceId)> = scene
+                .lights
+                .iter()
+                .enumerate()
+                .map(|(l, light)| (light_power(scene, light), SourceId::Light(l as u32)))
+                .collect();
+            for (p, mp) in mesh.patches.iter().enumerate() {
+                let first = mp.first_vertex as usize;
+                let power: f64 = (first..first + mp.vertex_count as usize)
+                    .map(|v| mean(total[v]) as f64 * mesh.vertices[v].area as f64)
+                    .sum();
+                if power > 0.0 {
+                    ranked.push((power, SourceId::Patch(p as u32)));
+                }
+            }
+            ranked.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+            ranked.truncate(settings.global_sources as usize);
+            let lights: Vec<(SourceId, u32)> = ranked
+                .iter()
+                .filter(|(_, s)| matches!(s, SourceId::Light(_)))
+                .map(|&(_, s)| (s, area_rays(s)))
+                .collect();
+            (0..np)
+                .map(|p| {
+                    let mut v = lights.clone();
+                    for e in &sol.lists[p] {
+                        if matches!(e.source, SourceId::Patch(_)) && ranked.iter().any(|r| r.1 == e.source) {
+                            v.push((e.source, area_rays(e.source)));
+                        }
+                    }
+                    v
+                })
+                .collect()
+        }
+        Method::Local => {
+            let mut tris: BTreeMap<SourceId, Vec<[Vec3; 3]>> = BTreeMap::new();
+            for e in sol.lists.iter().flatten() {
+                tris.entry(e.source)
+                    .or_insert_with(|| source_triangles(scene, sol, e.source));
+            }
+            let judge_ctx = Judge {
+                scene,
+                sol,
+                total: &total,
+                settings,
+                view,
+            };
+            criteria = (0..np)
+                .into_par_iter()
+                .map(|p| {
+                    sol.lists[p]
+                        .iter()
+                        .map(|e| {
+                            let c = judge(&judge_ctx, p as u32, e, &tris[&e.source]);
+                            (e.source, c)
+                        })
+                        .collect::<Vec<_>>()
+                })
+                .collect();
+            let mut chosen: Vec<Vec<(SourceId, u32)>> = criteria
+                .iter()
+                .map(|cs| {
+                    cs.iter()
+                        .filter(|(_, c)| c.selected())
+                        .map(|(s, c)| (*s, c.rays))
+                        .collect()
+                })
+                .collect();
+            if settings.per == SelectPer::Object {
+                // A source selected on any patch of a shape is selected on all its
+                // patches that list it, with the most rays any of them wanted.
+                let mut per_shape: BTreeMap<(u32, SourceId), u32> = BTreeMap::new();
+                for (p, ch) in chosen.iter().enumerate() {
+                    for &(s, r) in ch {
+                        let k = per_shape.entry((mesh.patches[p].shape, s)).or_insert(0);
+                        *k = (*k).max(r);
+                    }
+                }
+                for (p, ch) in chosen.iter_mut().enumerate() {
+                    let shape = mesh.patches[p].shape;
+                    *ch = sol.lists[p]
+                        .iter()
+                        .filter_map(|e| per_shape.get(&(shape, e.source)).map(|&r| (e.source, r)))
+                        .collect();
+                }
+            }
+            chosen
+        }
+    };
+
+    // Ray-traced sources: all lights, then the radiant patches chosen anywhere.
+    let mut sources: Vec<SourceId> = (0..nl as u32).map(SourceId::Light).collect();
+    let mut patch_sources: Vec<u32> = chosen
+        .iter()
+        .flatten()
+        .filter_map(|(s, _)| match s {
+            SourceId::Patch(p) => Some(*p),
+            _ => None,
+        })
+        .collect();
+    patch_sources.sort_unstable();
+    patch_sources.dedup();
+    sources.extend(patch_sources.iter().map(|&p| SourceId::Patch(p)));
+    let index = |s: SourceId| match s {
+        SourceId::Light(l) => l,
+        SourceId::Patch(p) => nl as u32 + patch_sources.binary_search(&p).expect("collected above") as u32,
+    };
+
+    let mut offsets = Vec::with_capacity(np + 1);
+    let mut picks = Vec::new();
+    let mut stored = sol.general.clone();
+    for (p, ch) in chosen.iter().enumerate() {
+        offsets.push(picks.len() as u32);
+        for &(s, rays) in ch {
+            picks.push(Pick {
+                source: index(s),
+                rays,
+            });
+        }
+        let first = mesh.patches[p].first_vertex as usize;
+        for e in &sol.lists[p] {
+            if !ch.iter().any(|(s, _)| *s == e.source) {
+                for (k, c) in e.occluded.iter().enumerate() {
+                    stored[first + k] += *c;
+                }
+            }
+        }
+    }
+    offsets.push(picks.len() as u32);
+
+    let emitters = sources
+        .iter()
+        .map(|&s| match s {
+            SourceId::Light(l) => SampledLight::prepare(scene, &scene.lights[l as usize]),
+            SourceId::Patch(p) => {
+                let tris = mesh.element_triangles(p);
+                let corners = tris
+                    .iter()
+                    .map(|t| t.map(|v| total[v as usize] * std::f32::consts::FRAC_1_PI))
+                    .collect();
+                let pos = tris.iter().map(|t| t.map(|v| mesh.vertices[v as usize].p));
+                SampledLight::Area(AreaEmitter::new(pos, Vec3::ZERO, corners))
+            }
+        })
+        .collect();
+    Ok(Selection {
+        solution: sol,
+        method,
+        sources,
+        emitters,
+        stored,
+        offsets,
+        picks,
+        criteria,
+    })
+}
+
+/// A distinct colour for ray-traced source `i` (golden-angle hues).
+pub fn source_colour(i: usize) -> Rgb {
+    let h = (i as f32 * 0.381_966).fract() * 6.0;
+    let x = 1.0 - ((h % 2.0) - 1.0).abs();
+    match h as u32 {
+        0 => Vec3::new(1.0, x, 0.0),
+        1 => Vec3::new(x, 1.0, 0.0),
+        2 => Vec3::new(0.0, 1.0, x),
+        3 => Vec3::new(0.0, x, 1.0),
+        4 => Vec3::new(x, 0.0, 1.0),
+        _ => Vec3::new(1.0, 0.0, x),
+    }
+}
+
+/// A picture of the selection seen through `camera` (`width x height`, one ray per
+/// pixel centre): each patch in the mean colour of the sources ray traced on it
+/// ([`source_colour`]), brighter the more shadow rays per hit it casts (log scale up
+/// to the most any patch casts); dark grey where nothing is ray traced; patch
+/// boundaries drawn dark. Returns the image in display values (0..1).
+pub fn selection_map(
+    scene: &Scene,
+    accel: &dyn Accel,
+    camera: &Camera,
+    sel: &Selection,
+    width: u32,
+    height: u32,
+) -> Image {
+    let mesh = &sel.solution.mesh;
+    let max_rays = (0..mesh.patches.len() as u32)
+        .map(|p| sel.rays(p))
+        .max()
+        .unwrap_or(0);
+    let patch_ids: Vec<Option<u32>> = (0..width * height)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i % width, i / width);
+            let ray = camera.ray(x as f32 + 0.5, y as f32 + 0.5);
+            accel.intersect(&ray).map(|hit| {
+                let front = {
+                    let m = &scene.shapes[hit.shape as usize].mesh;
+                    let [a, b, c] = m.triangle(hit.tri as usize);
+                    (b - a).cross(c - a).dot(ray.dir) < 0.0
+                };
+                mesh.patch_at(scene, &hit, front)
+            })
+        })
+        .collect();
+    let mut img = Image::new(width, height);
+    for y in 0..height {
+        for x in 0..width {
+            let i = (y * width + x) as usize;
+            let Some(p) = patch_ids[i] else { continue };
+            let picks = sel.picks(p);
+            let mut c = if picks.is_empty() {
+                Vec3::splat(0.15)
+            } else {
+                let hue = picks
+                    .iter()
+                    .map(|k| source_colour(k.source as usize))
+                    .sum::<Vec3>()
+                    / picks.len() as f32;
+                let r = sel.rays(p) as f32;
+                let level = (1.0 + r).ln() / (1.0 + max_rays.max(1) as f32).ln();
+                hue * (0.3 + 0.7 * level)
+            };
+            let edge = (x + 1 < width && patch_ids[i + 1] != Some(p))
+                || (y + 1 < height && patch_ids[i + width as usize] != Some(p));
+            if edge {
+                c *= 0.35;
+            }
+            img.pixels[i] = c;
+        }
+    }
+    img
+}
+
+#[cfg(test)]
+mod tests;
