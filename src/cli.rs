@@ -39,6 +39,9 @@ pub enum Command {
     Tessellate(TessellateArgs),
     /// Compare two images: mean FLIP and RMSE.
     Compare(CompareArgs),
+    /// Measure ray throughput (camera, shadow, incoherent rays), BVH build, the
+    /// radiosity solve and peak memory.
+    Bench(BenchArgs),
 }
 
 /// Options shared by commands that load a scene.
@@ -310,6 +313,55 @@ pub struct CompareArgs {
     error_map: Option<PathBuf>,
 }
 
+/// `radtrace bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Which view (sensor) the camera rays come from, from 0.
+    #[arg(long, default_value_t = 0)]
+    view: usize,
+    /// Camera rays per row [default: the scene's film].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    width: Option<u32>,
+    /// Rows of camera rays [default: the scene's film].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    height: Option<u32>,
+    /// Shadow rays per camera-ray hit (to points on the lights, in turn).
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(0..=1024))]
+    shadow_rays: u32,
+    /// Incoherent (cosine-distributed bounce) rays per camera-ray hit.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(0..=1024))]
+    bounce_rays: u32,
+    /// Times each measurement is repeated; the best is reported.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    repeats: u32,
+    /// Seed of the light points and bounce directions (and of the solve).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Worker threads of the "all threads" figures [default: all cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    threads: Option<u32>,
+    /// Skip the radiosity solve.
+    #[arg(long)]
+    no_solve: bool,
+    /// Also solve on one thread, for the 1-vs-all-threads scaling.
+    #[arg(long, conflicts_with = "no_solve")]
+    solve_scaling: bool,
+    #[command(flatten)]
+    solve: SolveArgs,
+    /// Print JSON instead of the table.
+    #[arg(long)]
+    json: bool,
+    /// Write the triangles, the ray sets and radtrace's answers to this directory as
+    /// .npy files (for tools/compare-peers.py).
+    #[arg(long, value_name = "DIR")]
+    dump: Option<PathBuf>,
+    /// No warnings on stderr.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
 fn parse_define(s: &str) -> std::result::Result<(String, String), String> {
     match s.split_once('=') {
         Some((k, v)) if !k.is_empty() => Ok((k.to_string(), v.to_string())),
@@ -337,6 +389,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Info(a) => cmd_info(a),
         Command::Tessellate(a) => cmd_tessellate(a),
         Command::Compare(a) => cmd_compare(a),
+        Command::Bench(a) => cmd_bench(a),
     }
 }
 
@@ -790,6 +843,39 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
         println!("mean FLIP {:.4}  RMSE {:.5}", c.flip, c.rmse);
     }
     Ok(())
+}
+
+fn cmd_bench(a: BenchArgs) -> Result<()> {
+    with_threads(a.threads, |threads| {
+        let scene = load_scene(&a.scene, a.quiet)?;
+        let sensor = scene.sensor(a.view)?;
+        let plan = crate::bench::Plan {
+            options: crate::bench::Options {
+                view: a.view,
+                width: a.width.unwrap_or(sensor.width),
+                height: a.height.unwrap_or(sensor.height),
+                shadow_per_hit: a.shadow_rays,
+                bounce_per_hit: a.bounce_rays,
+                seed: a.seed,
+            },
+            repeats: a.repeats,
+            solve: (!a.no_solve)
+                .then(|| a.solve.settings(&scene, a.seed))
+                .transpose()?,
+            solve_scaling: a.solve_scaling,
+            dump: a.dump.clone(),
+        };
+        let report = crate::bench::run(&scene, &plan, threads)?;
+        if a.json {
+            println!(
+                "{}",
+                serde_json::to_string_pretty(&report).expect("report serialises")
+            );
+        } else {
+            print!("{}", crate::bench::table(&report));
+        }
+        Ok(())
+    })
 }
 
 /// Runs `f` on a pool of `threads` workers (all cores when `None`), passing the

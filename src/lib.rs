@@ -13,6 +13,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod accel;
+pub mod bench;
 pub mod cli;
 pub mod compare;
 pub mod error;

@@ -1,0 +1,298 @@
+#!/usr/bin/env python3
+"""Side-by-side comparison of radtrace with the peers a user would pick instead.
+
+1. Ray queries: radtrace's BVH against Embree's single-ray API (pip package
+   `embreex`: its `EmbreeScene.run` loops over the rays calling rtcIntersect1 /
+   rtcOccluded1 one ray at a time, in one thread) on the same triangles and exactly the
+   same rays: camera (closest hit), shadow (occlusion) and incoherent (closest hit)
+   rays, made and dumped by `radtrace bench --dump`. Both are timed on 1 thread, and on
+   N threads (radtrace: N rayon workers; Embree: N processes, each tracing 1/N of the
+   rays, since `run` holds the GIL). The answers are checked against each other (same
+   triangle or occluded flag for > 99.9% of the rays, same distance where both hit the
+   same triangle) before any figure is printed.
+2. Time to equal quality against Mitsuba 3: see MITSUBA HOOK below (not done yet).
+
+Ratios, not absolute times, are the figures: the machine is shared and noisy. Each
+figure is the best of --repeats runs.
+
+Usage (from the repository root):
+    python3 tools/compare-peers.py                      # Cornell box, paper room, conference
+    python3 tools/compare-peers.py --scenes scenes/cornell-box/cornell-box.xml --json out.json
+
+The script re-runs itself in a virtual environment (default ~/.cache/radtrace-peers)
+with `embreex` and `numpy` installed on first use. CI does not run it.
+"""
+
+import argparse
+import json
+import multiprocessing as mp
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+DEFAULT_VENV = Path.home() / ".cache" / "radtrace-peers"
+PIP_PACKAGES = ["embreex==4.4.0.post1", "numpy"]
+KINDS = ["camera", "shadow", "incoherent"]
+DEFAULT_SCENES = [
+    "scenes/cornell-box/cornell-box.xml",
+    "scenes/paper-room/paper-room.xml",
+    "scenes/conference/conference.xml",
+]
+
+
+def ensure_venv(venv: Path) -> None:
+    """Re-executes this script in `venv` (created and filled on demand) unless the
+    packages are importable here already."""
+    try:
+        import embreex  # noqa: F401
+        import numpy  # noqa: F401
+
+        return
+    except ImportError:
+        pass
+    py = venv / "bin" / "python"
+    if os.environ.get("RADTRACE_PEERS_VENV") == str(venv):
+        sys.exit(f"compare-peers: error: {venv} has no working embreex/numpy")
+    if not py.exists():
+        print(f"compare-peers: creating {venv}", file=sys.stderr)
+        subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
+    check = subprocess.run([str(py), "-c", "import embreex, numpy"], capture_output=True)
+    if check.returncode != 0:
+        print(f"compare-peers: installing {' '.join(PIP_PACKAGES)}", file=sys.stderr)
+        subprocess.run([str(py), "-m", "pip", "install", "-q", *PIP_PACKAGES], check=True)
+    env = dict(os.environ, RADTRACE_PEERS_VENV=str(venv))
+    os.execve(str(py), [str(py), __file__, *sys.argv[1:]], env)
+
+
+def load_rays(dump: Path, kind: str):
+    import numpy as np
+
+    o = np.load(dump / f"{kind}_origins.npy")
+    d = np.load(dump / f"{kind}_dirs.npy")
+    tmax = np.load(dump / f"{kind}_tmax.npy")
+    return o, d, tmax
+
+
+def embree_scene(dump: Path):
+    import numpy as np
+    from embreex import rtcore_scene
+    from embreex.mesh_construction import TriangleMesh
+
+    tris = np.load(dump / "triangles.npy")
+    t = time.perf_counter()
+    scene = rtcore_scene.EmbreeScene()
+    TriangleMesh(scene, tris)
+    one = np.zeros((1, 3), np.float32)
+    scene.run(one, one + np.float32(1.0))  # the first run commits (builds the BVH)
+    return scene, time.perf_counter() - t
+
+
+def embree_trace(scene, o, d, tmax, kind):
+    """One pass of Embree's single-ray API over the rays; returns the answers."""
+    query = "OCCLUDED" if kind == "shadow" else "INTERSECT"
+    return scene.run(o, d, dists=tmax.copy(), query=query)
+
+
+def _worker(dump, kind, lo, hi, repeats, barrier, out):
+    scene, _ = embree_scene(Path(dump))
+    o, d, tmax = load_rays(Path(dump), kind)
+    o, d, tmax = o[lo:hi].copy(), d[lo:hi].copy(), tmax[lo:hi].copy()
+    times = []
+    for _ in range(repeats):
+        barrier.wait()
+        t = time.perf_counter()
+        embree_trace(scene, o, d, tmax, kind)
+        times.append(time.perf_counter() - t)
+    out.put(times)
+
+
+def embree_parallel(dump: Path, kind: str, n_rays: int, procs: int, repeats: int) -> float:
+    """Best wall time of `procs` processes tracing 1/procs of the rays each, started
+    together (a barrier before every repeat)."""
+    ctx = mp.get_context("spawn")
+    barrier = ctx.Barrier(procs)
+    out = ctx.Queue()
+    bounds = [n_rays * i // procs for i in range(procs + 1)]
+    ps = [
+        ctx.Process(target=_worker, args=(str(dump), kind, bounds[i], bounds[i + 1], repeats, barrier, out))
+        for i in range(procs)
+    ]
+    for p in ps:
+        p.start()
+    per_proc = [out.get() for _ in ps]
+    for p in ps:
+        p.join()
+    # Repeat r ends when its slowest process ends.
+    return min(max(ts[r] for ts in per_proc) for r in range(repeats))
+
+
+def check_agreement(dump: Path, scene, kind: str):
+    """Compares radtrace's answers with Embree's on every ray of `kind`."""
+    import numpy as np
+
+    o, d, tmax = load_rays(dump, kind)
+    if kind == "shadow":
+        ours = np.load(dump / "shadow_occluded.npy").astype(bool)
+        theirs = embree_trace(scene, o, d, tmax, kind) != -1
+        same = ours == theirs
+        return {"rays": len(ours), "agree": float(same.mean()) if len(ours) else 1.0, "max_rel_t": 0.0}
+    prim = np.load(dump / f"{kind}_prim.npy")
+    t = np.load(dump / f"{kind}_t.npy")
+    r = scene.run(o, d, dists=tmax.copy(), output=1)
+    eprim, et = r["primID"], r["tfar"]
+    both = (prim >= 0) & (eprim >= 0)
+    same_tri = prim == eprim
+    # A different triangle at the same distance is a tie (an edge shared by two
+    # triangles, or coplanar ones): both answers are right.
+    tie = both & ~same_tri & (np.abs(t - et) <= 1e-4 * np.maximum(1.0, np.abs(et)))
+    agree = same_tri | tie
+    hit_same = both & same_tri
+    rel = np.abs(t[hit_same] - et[hit_same]) / np.maximum(1.0, np.abs(et[hit_same]))
+    return {
+        "rays": len(prim),
+        "agree": float(agree.mean()) if len(prim) else 1.0,
+        "same_triangle": float(same_tri.mean()) if len(prim) else 1.0,
+        "max_rel_t": float(rel.max()) if len(rel) else 0.0,
+    }
+
+
+def radtrace_binary(args) -> Path:
+    if args.radtrace:
+        return Path(args.radtrace)
+    subprocess.run(["cargo", "build", "--release", "--quiet"], cwd=REPO, check=True)
+    return REPO / "target" / "release" / "radtrace"
+
+
+def compare_scene(args, exe: Path, scene_path: Path):
+    import numpy as np
+
+    with tempfile.TemporaryDirectory(prefix="radtrace-peers-") as tmp:
+        dump = Path(tmp)
+        cmd = [
+            str(exe), "bench", str(scene_path), "--dump", str(dump), "--json", "--no-solve", "-q",
+            "--threads", str(args.threads), "--repeats", str(args.repeats),
+            "--width", str(args.width), "--height", str(args.height),
+        ]
+        ours = json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout)
+        scene, build_s = embree_scene(dump)
+        # The best of several builds (the first one also loads the library).
+        for _ in range(args.repeats - 1):
+            build_s = min(build_s, embree_scene(dump)[1])
+        rows = []
+        for fig in ours["rays"]:
+            kind = fig["kind"]
+            o, d, tmax = load_rays(dump, kind)
+            n = len(o)
+            agreement = check_agreement(dump, scene, kind)
+            best = float("inf")
+            for _ in range(args.repeats):
+                t = time.perf_counter()
+                embree_trace(scene, o, d, tmax, kind)
+                best = min(best, time.perf_counter() - t)
+            emb_1t = n / best / 1e6 if n else 0.0
+            emb_nt = n / embree_parallel(dump, kind, n, args.threads, args.repeats) / 1e6 if n else 0.0
+            rows.append({
+                "kind": kind,
+                "query": fig["query"],
+                "rays": n,
+                "radtrace_1t": fig["mrays_1t"],
+                "embree_1t": emb_1t,
+                "radtrace_nt": fig["mrays_nt"],
+                "embree_nt": emb_nt,
+                "agreement": agreement,
+            })
+        return {
+            "scene": str(scene_path),
+            "triangles": ours["triangles"],
+            "threads": args.threads,
+            "bvh_build_ms": {"radtrace": ours["bvh_build_s"] * 1e3, "embree": build_s * 1e3},
+            "rays": rows,
+        }
+
+
+def ratio(a, b):
+    return a / b if b > 0 else float("nan")
+
+
+def print_table(results, threads):
+    n = threads
+    print()
+    print("Ray queries, Mrays/s (best of the repeats); ratio = radtrace / Embree single-ray API")
+    head = (f"{'scene':<13} {'rays':<11} {'count':>8}  {'radtrace 1t':>11} {'Embree 1t':>10} {'ratio':>6}"
+            f"  {f'radtrace {n}t':>11} {f'Embree {n}p':>10} {'ratio':>6}  {'agree':>8}")
+    print(head)
+    print("-" * len(head))
+    ok = True
+    for res in results:
+        name = Path(res["scene"]).stem
+        for r in res["rays"]:
+            a = r["agreement"]["agree"]
+            ok &= a >= 0.999
+            print(f"{name:<13} {r['kind']:<11} {r['rays']:>8}  {r['radtrace_1t']:>11.2f} {r['embree_1t']:>10.2f} "
+                  f"{ratio(r['radtrace_1t'], r['embree_1t']):>5.2f}x  {r['radtrace_nt']:>11.2f} {r['embree_nt']:>10.2f} "
+                  f"{ratio(r['radtrace_nt'], r['embree_nt']):>5.2f}x  {100 * a:>7.3f}%")
+    print()
+    print(f"{'BVH build, ms':<24} {'radtrace':>10} {'Embree':>10} {'ratio':>8}   (both on all threads)")
+    for res in results:
+        b = res["bvh_build_ms"]
+        print(f"{Path(res['scene']).stem + ' (' + str(res['triangles']) + ' tris)':<24} {b['radtrace']:>10.2f} "
+              f"{b['embree']:>10.2f} {ratio(b['embree'], b['radtrace']):>7.2f}x faster" if b["radtrace"] > 0 else "")
+    print(f"\n{n}p: Embree on {n} processes (its run() holds the GIL); agree: same triangle (or a tie at the "
+          "same distance) or occluded flag")
+    return ok
+
+
+# ---------------------------------------------------------------------------------
+# MITSUBA HOOK (time to equal quality) -- to be filled in by the render owner once
+# the default render (local selection + shadow image buffer) lands. Plan of issue 6:
+#   * one high-sample Mitsuba reference per view: ../shared/tools/mitsuba-reference
+#     (at run time this script may only take its path from --mitsuba-reference; the
+#     repository never reads ../shared itself);
+#   * Mitsuba 64 spp with --time: wall time T_m and mean FLIP F_m against the reference
+#     (`radtrace compare REF IMG --json`);
+#   * radtrace's default render (whole process, solve included) at increasing quality
+#     until its FLIP <= F_m: wall time T_r; target T_r <= T_m / 5 on the Cornell box;
+#   * rows: scene, view, Mitsuba spp/time/FLIP, radtrace settings/time/FLIP, ratio.
+# ---------------------------------------------------------------------------------
+def mitsuba_time_to_quality(args):
+    """Not implemented yet: see MITSUBA HOOK above."""
+    return None
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--scenes", nargs="+", default=None, help="scene files (default: the repository's)")
+    ap.add_argument("--radtrace", help="radtrace binary (default: cargo build --release)")
+    ap.add_argument("--threads", type=int, default=2, help="threads (radtrace) / processes (Embree) of the parallel figures")
+    ap.add_argument("--repeats", type=int, default=3, help="timing repeats; the best is reported")
+    ap.add_argument("--width", type=int, default=512)
+    ap.add_argument("--height", type=int, default=512)
+    ap.add_argument("--venv", type=Path, default=DEFAULT_VENV)
+    ap.add_argument("--json", type=Path, help="also write the results as JSON")
+    ap.add_argument("--mitsuba-reference", help="(for the MITSUBA HOOK; unused so far)")
+    args = ap.parse_args()
+    ensure_venv(args.venv)
+
+    scenes = [Path(s) for s in args.scenes] if args.scenes else [
+        REPO / s for s in DEFAULT_SCENES if (REPO / s).exists()
+    ]
+    exe = radtrace_binary(args)
+    results = []
+    for s in scenes:
+        print(f"compare-peers: {s}", file=sys.stderr)
+        results.append(compare_scene(args, exe, s))
+    ok = print_table(results, args.threads)
+    mitsuba = mitsuba_time_to_quality(args)
+    if args.json:
+        args.json.write_text(json.dumps({"rays": results, "mitsuba": mitsuba}, indent=2) + "\n")
+    if not ok:
+        print("compare-peers: error: radtrace and Embree disagree on more than 0.1% of some ray set", file=sys.stderr)
+        sys.exit(1)
+
+
+if __name__ == "__main__":
+    main()
