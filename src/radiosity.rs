@@ -181,10 +181,14 @@ pub fn point_polygon_form_factor(x: Vec3, n: Vec3, poly: &[Vec3]) -> f32 {
     if len < 3 {
         return 0.0;
     }
+    // The unit vectors to the corners, each normalised once.
+    let mut r = [Vec3::ZERO; 8];
+    for (ri, c) in r.iter_mut().zip(&clipped[..len]) {
+        *ri = (*c - x).normalize_or_zero();
+    }
     let mut sum = 0.0;
     for i in 0..len {
-        let ri = (clipped[i] - x).normalize_or_zero();
-        let rj = (clipped[(i + 1) % len] - x).normalize_or_zero();
+        let (ri, rj) = (r[i], r[(i + 1) % len]);
         let c = ri.cross(rj);
         let l = c.length();
         if l > 1e-12 {
@@ -483,28 +487,37 @@ impl Solver<'_> {
             },
             SourceId::Patch(_) => None,
         };
-        // Per patch, in parallel: received light at its vertices.
+        // Per vertex, in parallel over all receiving vertices (not per patch: one
+        // large patch would keep one thread busy while the others wait), then
+        // gathered per patch. The sums per vertex are the same either way.
         let mesh = &self.mesh;
-        let results: Vec<Option<Received>> = (0..mesh.patches.len())
-            .into_par_iter()
-            .map(|p| {
-                let patch = &mesh.patches[p];
-                if Some(p as u32) == skip_patch || patch.reflectance.max_element() <= 0.0 {
-                    return None;
+        let receives =
+            |p: usize| Some(p as u32) != skip_patch && mesh.patches[p].reflectance.max_element() > 0.0;
+        let per_vertex: Vec<(Rgb, Rgb, u64)> = mesh
+            .vertices
+            .par_iter()
+            .with_min_len(16)
+            .map(|v| {
+                if !receives(v.patch as usize) {
+                    return (Vec3::ZERO, Vec3::ZERO, 0);
                 }
-                let first = patch.first_vertex as usize;
-                let mut occ = Vec::with_capacity(patch.vertex_count as usize);
-                let mut unocc = Vec::with_capacity(patch.vertex_count as usize);
-                let mut rays = 0;
-                for v in &mesh.vertices[first..first + patch.vertex_count as usize] {
-                    let (o, u, r) = self.gather(points, v, sampled.as_ref());
-                    occ.push(o * patch.reflectance);
-                    unocc.push(u * patch.reflectance);
-                    rays += r;
-                }
-                Some((occ, unocc, rays))
+                let rho = mesh.patches[v.patch as usize].reflectance;
+                let (o, u, r) = self.gather(points, v, sampled.as_ref());
+                (o * rho, u * rho, r)
             })
             .collect();
+        let results = (0..mesh.patches.len()).map(|p| {
+            if !receives(p) {
+                return None;
+            }
+            let patch = &mesh.patches[p];
+            let first = patch.first_vertex as usize;
+            let vs = &per_vertex[first..first + patch.vertex_count as usize];
+            let occ: Vec<Rgb> = vs.iter().map(|x| x.0).collect();
+            let unocc: Vec<Rgb> = vs.iter().map(|x| x.1).collect();
+            Some((occ, unocc, vs.iter().map(|x| x.2).sum::<u64>()))
+        });
+        let results: Vec<Option<Received>> = results.collect();
         let mut touched = Vec::new();
         for (p, r) in results.into_iter().enumerate() {
             let Some((occ, unocc, rays)) = r else { continue };
