@@ -13,7 +13,9 @@
 2. Time to equal quality against Mitsuba 3: see MITSUBA HOOK below (not done yet).
 
 Ratios, not absolute times, are the figures: the machine is shared and noisy. Each
-figure is the best of --repeats runs.
+figure is the best of --repeats runs; 1-thread figures are per second of the thread's
+CPU time (both tracers), N-thread figures per wall second. The load average is
+printed: N-thread figures mean little when it is above the core count.
 
 Usage (from the repository root):
     python3 tools/compare-peers.py                      # Cornell box, paper room, conference
@@ -188,11 +190,13 @@ def compare_scene(args, exe: Path, scene_path: Path):
             o, d, tmax = load_rays(dump, kind)
             n = len(o)
             agreement = check_agreement(dump, scene, kind)
+            # Thread CPU time, as radtrace's 1-thread figure (a loaded machine takes
+            # the CPU away from both without counting it).
             best = float("inf")
             for _ in range(args.repeats):
-                t = time.perf_counter()
+                t = time.thread_time()
                 embree_trace(scene, o, d, tmax, kind)
-                best = min(best, time.perf_counter() - t)
+                best = min(best, time.thread_time() - t)
             emb_1t = n / best / 1e6 if n else 0.0
             emb_nt = n / embree_parallel(dump, kind, n, args.threads, args.repeats) / 1e6 if n else 0.0
             rows.append({
@@ -241,8 +245,12 @@ def print_table(results, threads):
         b = res["bvh_build_ms"]
         print(f"{Path(res['scene']).stem + ' (' + str(res['triangles']) + ' tris)':<24} {b['radtrace']:>10.2f} "
               f"{b['embree']:>10.2f} {ratio(b['embree'], b['radtrace']):>7.2f}x faster" if b["radtrace"] > 0 else "")
-    print(f"\n{n}p: Embree on {n} processes (its run() holds the GIL); agree: same triangle (or a tie at the "
-          "same distance) or occluded flag")
+    print(f"\n1t: per thread-CPU second; {n}t/{n}p: per wall second, Embree on {n} processes (its run() holds "
+          "the GIL); agree: same triangle (or a tie at the same distance) or occluded flag")
+    try:
+        print(f"load average at the end: {open('/proc/loadavg').read().split()[0]} ({os.cpu_count()} cores)")
+    except OSError:
+        pass
     return ok
 
 
