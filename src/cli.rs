@@ -10,7 +10,7 @@ use serde_json::json;
 use crate::accel::Bvh;
 use crate::io::solution;
 use crate::radiosity::{self, Solution, SolveSettings};
-use crate::render::{self, Filter, Method, Settings};
+use crate::render::{self, Filter, Method, Refine, Sampler, Settings};
 use crate::scene::{xml, Light, Scene};
 use crate::selection::{self, SelectPer, SelectSettings, Selection, ViewScale};
 use crate::stats::Timings;
@@ -39,6 +39,9 @@ pub enum Command {
     Tessellate(TessellateArgs),
     /// Compare two images: mean FLIP and RMSE.
     Compare(CompareArgs),
+    /// Reproduce the paper's Tables 1-3 for every view of a scene: fully sampled,
+    /// local selection, shadow image buffer, and both.
+    Tables(TablesArgs),
     /// Measure ray throughput (camera, shadow, incoherent rays), BVH build, the
     /// radiosity solve and peak memory.
     Bench(BenchArgs),
@@ -183,6 +186,45 @@ impl SelectArgs {
     }
 }
 
+/// On or off.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum OnOff {
+    /// On.
+    On,
+    /// Off.
+    Off,
+}
+
+/// The adaptive sampler (paper Sect. 5 and 6).
+#[derive(Debug, Args)]
+pub struct RefineArgs {
+    /// Highest refinement level of the adaptive sampler: at most 4^N samples per
+    /// pixel (level -1: one per 2x2 pixels; level 0: one per pixel).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(0..=4))]
+    max_level: u32,
+    /// Difference criterion: refine where neighbouring samples' display values
+    /// (sRGB, 0..1, after --exposure) differ by more than this in a channel.
+    #[arg(long, default_value_t = 0.05, value_name = "DIFFERENCE")]
+    contrast: f32,
+}
+
+impl RefineArgs {
+    fn refine(&self, sib: bool, exposure: f32) -> Result<Refine> {
+        if !(self.contrast >= 0.0 && self.contrast <= 1.0) {
+            return Err(Error::Usage(format!(
+                "--contrast {}: must be between 0 and 1",
+                self.contrast
+            )));
+        }
+        Ok(Refine {
+            max_level: self.max_level,
+            contrast: self.contrast,
+            exposure,
+            sib,
+        })
+    }
+}
+
 /// `radtrace solve`.
 #[derive(Debug, Args)]
 pub struct SolveCmdArgs {
@@ -221,30 +263,28 @@ pub struct RenderArgs {
     /// Which view (sensor) of the scene, from 0.
     #[arg(long, default_value_t = 0)]
     view: usize,
-    /// Samples per pixel [default: the scene's sampler, else 16].
+    /// Image sampler: `adaptive` (the paper's refinement from level -1 to
+    /// --max-level, with the shadow image buffer) or `uniform` (--spp samples in every
+    /// pixel) [default: adaptive; uniform when --spp is given].
+    #[arg(long, value_enum)]
+    sampler: Option<Sampler>,
+    /// Samples per pixel of the uniform sampler [default: the scene's sampler, else 16].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=65536))]
     spp: Option<u32>,
-    /// Seed for all random choices; the same seed gives the same image.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-    /// Worker threads [default: all cores].
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
-    threads: Option<u32>,
-    /// Image width in pixels [default: the scene's film].
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
-    width: Option<u32>,
-    /// Image height in pixels [default: the scene's film].
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
-    height: Option<u32>,
-    /// Shadow rays per area light at each diffuse hit.
-    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=65536))]
-    area_samples: u32,
-    /// Maximum number of mirror reflections followed.
-    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u32).range(0..=64))]
-    max_depth: u32,
-    /// Pixel reconstruction filter.
-    #[arg(long, value_enum, default_value_t = Filter::Gaussian)]
-    filter: Filter,
+    #[command(flatten)]
+    refine: RefineArgs,
+    /// Shadow image buffer: `on` takes a light point's visibility from the
+    /// neighbouring samples where they agree, `off` casts every shadow ray (the fully
+    /// sampled picture) [default: on for local and global, off otherwise].
+    #[arg(long, value_enum)]
+    sib: Option<OnOff>,
+    /// Write pictures of the method to this folder: the shadow image of each
+    /// ray-traced source (sib-NN-NAME.png), samples per pixel (density.png) and shadow
+    /// rays per pixel (rays.png). Adaptive sampler only.
+    #[arg(long, value_name = "DIR")]
+    sib_images: Option<PathBuf>,
+    #[command(flatten)]
+    image: ImageArgs,
     /// Exposure in stops applied to PNG output (EXR is always written unscaled).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
@@ -273,6 +313,64 @@ pub struct RenderArgs {
     solve: SolveArgs,
     #[command(flatten)]
     select: SelectArgs,
+}
+
+/// Image and sampling options shared by `render` and `tables`.
+#[derive(Debug, Args)]
+pub struct ImageArgs {
+    /// Seed for all random choices; the same seed gives the same image.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Worker threads [default: all cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    threads: Option<u32>,
+    /// Image width in pixels [default: the scene's film].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    width: Option<u32>,
+    /// Image height in pixels [default: the scene's film].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    height: Option<u32>,
+    /// Sub-sources of each area light (and selected radiant patch): the shadow rays
+    /// `norm` casts to it at each diffuse hit, and the most `local` casts.
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    area_samples: u32,
+    /// Maximum number of mirror reflections followed.
+    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u32).range(0..=64))]
+    max_depth: u32,
+    /// Pixel reconstruction filter.
+    #[arg(long, value_enum, default_value_t = Filter::Gaussian)]
+    filter: Filter,
+}
+
+/// `radtrace tables`.
+#[derive(Debug, Args)]
+pub struct TablesArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Views (sensors) to render, e.g. `0,1` [default: every view of the scene].
+    #[arg(long, value_delimiter = ',')]
+    views: Vec<usize>,
+    /// Write each view's four images (viewK-RUN.exr) and statistics (viewK-RUN.json)
+    /// to this folder.
+    #[arg(short, long, value_name = "DIR")]
+    output: Option<PathBuf>,
+    /// Print the figures as JSON instead of tables.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    image: ImageArgs,
+    #[command(flatten)]
+    refine: RefineArgs,
+    /// Reuse a radiosity solution saved by `radtrace solve` instead of solving.
+    #[arg(long, value_name = "FILE")]
+    solution: Option<PathBuf>,
+    #[command(flatten)]
+    solve: SolveArgs,
+    #[command(flatten)]
+    select: SelectArgs,
+    /// No progress bars and no warnings on stderr.
+    #[arg(short, long)]
+    quiet: bool,
 }
 
 /// `radtrace info`.
@@ -389,6 +487,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Info(a) => cmd_info(a),
         Command::Tessellate(a) => cmd_tessellate(a),
         Command::Compare(a) => cmd_compare(a),
+        Command::Tables(a) => cmd_tables(a),
         Command::Bench(a) => cmd_bench(a),
     }
 }
@@ -419,6 +518,204 @@ fn progress_bar(len: u64, label: &str, quiet: bool) -> ProgressBar {
     pb
 }
 
+/// A loaded scene with its BVH and (for methods other than `direct`) its radiosity
+/// solution: what every view shares.
+struct Loaded {
+    scene: Scene,
+    bvh: Bvh,
+    solution: Option<Solution>,
+}
+
+/// Loads the scene, builds the BVH, and loads or computes the solution if `solve`.
+fn load_all(
+    scene: &SceneArgs,
+    solution: Option<&Path>,
+    solve: Option<(&SolveArgs, u64)>,
+    quiet: bool,
+    t: &mut Timings,
+) -> Result<Loaded> {
+    let scene = t.time("load", || load_scene(scene, quiet))?;
+    let bvh = t.time("accel", || Bvh::build(&scene));
+    if bvh.skipped > 0 && !quiet {
+        eprintln!(
+            "radtrace: warning: {} degenerate triangle(s) ignored",
+            bvh.skipped
+        );
+    }
+    let solution = match (solve, solution) {
+        (None, _) => None,
+        (Some(_), Some(path)) => Some(t.time("load_solution", || solution::load(path, &scene))?),
+        (Some((args, seed)), None) => {
+            let st = args.settings(&scene, seed)?;
+            Some(t.time("solve", || run_solve(&scene, &bvh, &st, quiet)))
+        }
+    };
+    Ok(Loaded { scene, bvh, solution })
+}
+
+/// Selects the sources for `settings.method` (with the view's camera) and renders.
+fn render_view<'a>(
+    l: &'a Loaded,
+    settings: &Settings,
+    select: &SelectSettings,
+    quiet: bool,
+    t: &mut Timings,
+) -> Result<(render::Output, Option<Selection<'a>>)> {
+    let sensor = l.scene.sensor(settings.view)?;
+    let camera = render::Camera::new(sensor, settings.width, settings.height);
+    let selection = match (&l.solution, settings.method) {
+        (_, Method::Direct) | (None, _) => None,
+        (Some(sol), method) => {
+            let view = ViewScale::of(&camera);
+            Some(t.time("select", || {
+                selection::select(&l.scene, sol, method, select, Some(&view))
+            })?)
+        }
+    };
+    if let (Some(sel), false) = (&selection, quiet) {
+        if settings.method == Method::Local {
+            print_selection_summary(sel);
+        }
+    }
+    let bars = |label: &str, n: u64| progress_bar(n, label, quiet);
+    let out = render::render(&l.scene, &l.bvh, settings, selection.as_ref(), &bars)?;
+    t.add("render", out.trace_s);
+    t.add("reconstruct", out.reconstruct_s);
+    Ok((out, selection))
+}
+
+/// Name and kind of each ray-traced source of a render.
+fn source_names(scene: &Scene, selection: Option<&Selection>, count: usize) -> Vec<(String, String)> {
+    (0..count)
+        .map(|i| match selection {
+            Some(sel) => (sel.source_name(scene, i), source_kind(scene, sel.sources[i])),
+            None => (scene.light_name(i), scene.lights[i].kind().to_string()),
+        })
+        .collect()
+}
+
+/// The statistics JSON of one render.
+#[allow(clippy::too_many_arguments)]
+fn render_json(
+    l: &Loaded,
+    settings: &Settings,
+    out: &render::Output,
+    selection: Option<&Selection>,
+    select: &SelectSettings,
+    names: &[(String, String)],
+    threads: usize,
+    time_s: serde_json::Value,
+) -> serde_json::Value {
+    let c = &out.counters;
+    let per_hit = |rays: u64| {
+        if c.diffuse_hits > 0 {
+            rays as f64 / c.diffuse_hits as f64
+        } else {
+            0.0
+        }
+    };
+    let sources: Vec<serde_json::Value> = c
+        .sources
+        .iter()
+        .zip(names)
+        .map(|(s, (name, kind))| {
+            json!({
+                "name": name,
+                "kind": kind,
+                "hits": s.hits,
+                "shadow_rays": s.shadow_rays,
+                "rays_per_hit": per_hit(s.shadow_rays),
+            })
+        })
+        .collect();
+    let adaptive = settings.sampler == Sampler::Adaptive;
+    json!({
+        "scene": l.scene.path,
+        "view": settings.view,
+        "method": settings.method,
+        "sampler": settings.sampler,
+        "width": settings.width,
+        "height": settings.height,
+        "spp": if adaptive { serde_json::Value::Null } else { json!(settings.spp) },
+        "max_level": if adaptive { json!(settings.refine.max_level) } else { serde_json::Value::Null },
+        "contrast": if adaptive { json!(settings.refine.contrast) } else { serde_json::Value::Null },
+        "sib": adaptive && settings.refine.sib,
+        "seed": settings.seed,
+        "area_samples": settings.area_samples,
+        "max_depth": settings.max_depth,
+        "filter": settings.filter,
+        "threads": threads,
+        "triangles": l.bvh.triangle_count(),
+        "lights": l.scene.lights.len(),
+        "primary_rays": c.primary_rays,
+        "shadow_rays": c.shadow_rays,
+        "shadow_rays_saved": c.shadow_rays_saved,
+        "diffuse_hits": c.diffuse_hits,
+        "reflection_rays": c.reflection_rays,
+        "shadow_rays_per_hit": c.rays_per_hit(),
+        "levels": out.levels,
+        "sources": sources,
+        "solve": l.solution.as_ref().filter(|_| settings.method != Method::Direct).map(solve_json),
+        "selection": selection.map(|sel| selection_json(sel, select)),
+        "time_s": time_s,
+    })
+}
+
+fn write_json(path: &Path, doc: &serde_json::Value) -> Result<()> {
+    let text = serde_json::to_string_pretty(doc).expect("stats serialise") + "\n";
+    crate::io::write_atomic(path, text.as_bytes())
+}
+
+/// Writes the pictures of `--sib-images` to `dir`.
+fn write_sib_images(dir: &Path, set: &render::SampleSet, names: &[(String, String)]) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    for (i, (name, _)) in names.iter().enumerate() {
+        let safe: String = name
+            .chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || c == '-' {
+                    c
+                } else {
+                    '_'
+                }
+            })
+            .collect();
+        let img = set.shadow_image(i as u32);
+        crate::io::write_image(&img, &dir.join(format!("sib-{i:02}-{safe}.png")), 0.0)?;
+    }
+    crate::io::write_image(&set.density_image(), &dir.join("density.png"), 0.0)?;
+    crate::io::write_image(&set.rays_image(), &dir.join("rays.png"), 0.0)
+}
+
+impl ImageArgs {
+    /// The render settings for `view` of `scene` with `method` (the uniform sampler's
+    /// `spp` and the adaptive sampler's `refine` as given).
+    fn settings(
+        &self,
+        scene: &Scene,
+        view: usize,
+        method: Method,
+        sampler: Sampler,
+        spp: Option<u32>,
+        refine: Refine,
+    ) -> Result<Settings> {
+        let sensor = scene.sensor(view)?;
+        Ok(Settings {
+            method,
+            view,
+            width: self.width.unwrap_or(sensor.width),
+            height: self.height.unwrap_or(sensor.height),
+            spp: spp.or(sensor.spp).unwrap_or(16).clamp(1, 65536),
+            seed: self.seed,
+            area_samples: self.area_samples,
+            max_depth: self.max_depth,
+            filter: self.filter,
+            sampler,
+            refine,
+        })
+    }
+}
+
 fn cmd_render(a: RenderArgs) -> Result<()> {
     let total = Instant::now();
     check_output_ext(&a.output, &["exr", "png"])?;
@@ -430,56 +727,45 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
             ));
         }
     }
-    let select_settings = a.select.settings(a.area_samples)?;
+    let sampler = a.sampler.unwrap_or(if a.spp.is_some() {
+        Sampler::Uniform
+    } else {
+        Sampler::Adaptive
+    });
+    if sampler == Sampler::Adaptive && a.spp.is_some() {
+        return Err(Error::Usage(
+            "--spp sets the uniform sampler's samples per pixel; the adaptive sampler takes up to 4^--max-level per pixel (use --sampler uniform with --spp)".into(),
+        ));
+    }
+    if a.sib_images.is_some() && sampler != Sampler::Adaptive {
+        return Err(Error::Usage(
+            "--sib-images needs the adaptive sampler (the shadow image buffer)".into(),
+        ));
+    }
+    if a.sib == Some(OnOff::On) && sampler != Sampler::Adaptive {
+        return Err(Error::Usage(
+            "--sib on needs the adaptive sampler: the shadow image buffer reuses the shadows of coarser samples".into(),
+        ));
+    }
+    let sib = match a.sib {
+        Some(v) => v == OnOff::On,
+        None => matches!(a.method, Method::Local | Method::Global),
+    };
+    let refine = a.refine.refine(sib, a.exposure)?;
+    let select_settings = a.select.settings(a.image.area_samples)?;
     let baseline = a.baseline.as_deref().map(read_baseline).transpose()?;
-    with_threads(a.threads, |threads| {
+    with_threads(a.image.threads, |threads| {
         let mut t = Timings::default();
-        let scene = t.time("load", || load_scene(&a.scene, a.quiet))?;
-        let sensor = scene.sensor(a.view)?;
-        let settings = Settings {
-            method: a.method,
-            view: a.view,
-            width: a.width.unwrap_or(sensor.width),
-            height: a.height.unwrap_or(sensor.height),
-            spp: a.spp.or(sensor.spp).unwrap_or(16).clamp(1, 65536),
-            seed: a.seed,
-            area_samples: a.area_samples,
-            max_depth: a.max_depth,
-            filter: a.filter,
-        };
-        let bvh = t.time("accel", || Bvh::build(&scene));
-        if bvh.skipped > 0 && !a.quiet {
-            eprintln!(
-                "radtrace: warning: {} degenerate triangle(s) ignored",
-                bvh.skipped
-            );
-        }
-        let solution = if a.method == Method::Direct {
-            None
-        } else if let Some(path) = &a.solution {
-            Some(t.time("load_solution", || solution::load(path, &scene))?)
-        } else {
-            let st = a.solve.settings(&scene, a.seed)?;
-            Some(t.time("solve", || run_solve(&scene, &bvh, &st, a.quiet)))
-        };
-        let camera = render::Camera::new(sensor, settings.width, settings.height);
-        let selection = match &solution {
-            Some(sol) => {
-                let view = ViewScale::of(&camera);
-                Some(t.time("select", || {
-                    selection::select(&scene, sol, a.method, &select_settings, Some(&view))
-                })?)
-            }
-            None => None,
-        };
-        if let (Some(sel), false) = (&selection, a.quiet) {
-            if a.method == Method::Local {
-                print_selection_summary(sel);
-            }
-        }
+        let solve = (a.method != Method::Direct).then_some((&a.solve, a.image.seed));
+        let l = load_all(&a.scene, a.solution.as_deref(), solve, a.quiet, &mut t)?;
+        let settings = a
+            .image
+            .settings(&l.scene, a.view, a.method, sampler, a.spp, refine)?;
+        let (out, selection) = render_view(&l, &settings, &select_settings, a.quiet, &mut t)?;
         if let (Some(path), Some(sel)) = (&a.selection_map, &selection) {
+            let camera = render::Camera::new(l.scene.sensor(a.view)?, settings.width, settings.height);
             let img = t.time("selection_map", || {
-                selection::selection_map(&scene, &bvh, &camera, sel, settings.width, settings.height)
+                selection::selection_map(&l.scene, &l.bvh, &camera, sel, settings.width, settings.height)
             });
             crate::io::write_image(&img, path, 0.0)?;
             if !a.quiet {
@@ -491,7 +777,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
                     let c = selection::source_colour(i);
                     eprintln!(
                         "  {:<28} rgb({:.0}, {:.0}, {:.0})",
-                        sel.source_name(&scene, i),
+                        sel.source_name(&l.scene, i),
                         255.0 * c.x,
                         255.0 * c.y,
                         255.0 * c.z
@@ -499,97 +785,329 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
                 }
             }
         }
-        let pb = progress_bar(settings.height as u64, "render", a.quiet);
-        let out = render::render(&scene, &bvh, &settings, selection.as_ref(), Some(&pb))?;
-        pb.finish_and_clear();
-        t.add("render", out.trace_s);
-        t.add("reconstruct", out.reconstruct_s);
         t.time("output", || {
             crate::io::write_image(&out.image, &a.output, a.exposure)
         })?;
         let c = &out.counters;
+        let names = source_names(&l.scene, selection.as_ref(), c.sources.len());
+        if let (Some(dir), Some(set)) = (&a.sib_images, &out.samples) {
+            write_sib_images(dir, set, &names)?;
+        }
+        let sampling = match sampler {
+            Sampler::Adaptive => format!(
+                "adaptive to level {}, SIB {}",
+                refine.max_level,
+                if refine.sib { "on" } else { "off" }
+            ),
+            Sampler::Uniform => format!("{} spp", settings.spp),
+        };
         if !a.quiet {
             eprintln!(
-                "radtrace: {} view {} {}x{} {} spp, {} method: {:.2} s, {} shadow rays, {} diffuse hits ({:.1} per hit) -> {}",
-                scene.path.display(),
+                "radtrace: {} view {} {}x{} {}, {} method: {:.2} s, {} samples, {} shadow rays ({} saved by the SIB), {} diffuse hits ({:.1} per hit) -> {}",
+                l.scene.path.display(),
                 a.view,
                 settings.width,
                 settings.height,
-                settings.spp,
+                sampling,
                 a.method.name(),
                 total.elapsed().as_secs_f64(),
+                c.primary_rays,
                 c.shadow_rays,
+                c.shadow_rays_saved,
                 c.diffuse_hits,
                 c.rays_per_hit(),
                 a.output.display()
             );
         }
-        let names: Vec<(String, String)> = (0..c.sources.len())
-            .map(|i| match &selection {
-                Some(sel) => (sel.source_name(&scene, i), source_kind(&scene, sel.sources[i])),
-                None => (scene.light_name(i), scene.lights[i].kind().to_string()),
-            })
-            .collect();
         if a.stats_table {
+            let title = format!(
+                "{}, view {}, {}x{}, {}",
+                l.scene.path.display(),
+                a.view,
+                settings.width,
+                settings.height,
+                sampling
+            );
             print!(
                 "{}",
-                crate::stats::table1(
-                    &format!(
-                        "{}, view {}, {}x{}, {} spp",
-                        scene.path.display(),
-                        a.view,
-                        settings.width,
-                        settings.height,
-                        settings.spp
-                    ),
-                    &a.method.name(),
-                    c,
-                    &names,
-                    baseline.as_ref()
-                )
+                crate::stats::table1(&title, &a.method.name(), c, &names, baseline.as_ref())
             );
+            if !out.levels.is_empty() {
+                let rows: Vec<Vec<String>> = crate::stats::table2_rows(&out.levels)
+                    .into_iter()
+                    .map(|r| r.to_vec())
+                    .collect();
+                println!();
+                print!(
+                    "{}",
+                    crate::stats::format_table(
+                        &format!("Table 2. Shadow image buffer per level: {title}"),
+                        &TABLE2_HEADERS[1..],
+                        &rows
+                    )
+                );
+            }
         }
         if let Some(path) = &a.stats {
-            let sources: Vec<serde_json::Value> = c
-                .sources
+            let doc = render_json(
+                &l,
+                &settings,
+                &out,
+                selection.as_ref(),
+                &select_settings,
+                &names,
+                threads,
+                json!(t.to_json(total.elapsed().as_secs_f64())),
+            );
+            write_json(path, &doc)?;
+        }
+        Ok(())
+    })
+}
+
+const TABLE2_HEADERS: [&str; 7] = [
+    "Figure",
+    "Level",
+    "No. of diffuse hits",
+    "No. of shadow rays",
+    "No. of shadow rays saved",
+    "% Shadow rays saved",
+    "% Shadow rays saved cumulatively",
+];
+
+/// One of the four renders of a view in `radtrace tables`.
+struct Run {
+    /// Short name (file names, JSON keys).
+    key: &'static str,
+    method: Method,
+    sib: bool,
+}
+
+const RUNS: [Run; 4] = [
+    Run {
+        key: "norm",
+        method: Method::Norm,
+        sib: false,
+    },
+    Run {
+        key: "local",
+        method: Method::Local,
+        sib: false,
+    },
+    Run {
+        key: "norm-sib",
+        method: Method::Norm,
+        sib: true,
+    },
+    Run {
+        key: "local-sib",
+        method: Method::Local,
+        sib: true,
+    },
+];
+
+fn cmd_tables(a: TablesArgs) -> Result<()> {
+    let total = Instant::now();
+    let select_settings = a.select.settings(a.image.area_samples)?;
+    a.refine.refine(false, 0.0)?;
+    with_threads(a.image.threads, |threads| {
+        let mut t = Timings::default();
+        let l = load_all(
+            &a.scene,
+            a.solution.as_deref(),
+            Some((&a.solve, a.image.seed)),
+            a.quiet,
+            &mut t,
+        )?;
+        let views: Vec<usize> = if a.views.is_empty() {
+            (0..l.scene.sensors.len()).collect()
+        } else {
+            a.views.clone()
+        };
+        if views.is_empty() {
+            return Err(Error::Usage(format!(
+                "{}: the scene has no view (sensor)",
+                l.scene.path.display()
+            )));
+        }
+        if let Some(dir) = &a.output {
+            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        }
+        let letter = |v: usize| char::from(b'a' + (v % 26) as u8);
+        let mut results = Vec::new();
+        for &view in &views {
+            let mut runs: Vec<(render::Output, f32)> = Vec::new();
+            for run in &RUNS {
+                let refine = a.refine.refine(run.sib, 0.0)?;
+                let settings =
+                    a.image
+                        .settings(&l.scene, view, run.method, Sampler::Adaptive, None, refine)?;
+                if !a.quiet {
+                    eprintln!("radtrace: view {view} ({}): {}", letter(view), run.key);
+                }
+                let mut rt = Timings::default();
+                let (out, selection) = render_view(&l, &settings, &select_settings, a.quiet, &mut rt)?;
+                let flip = match runs.first() {
+                    Some((full, _)) => crate::compare::compare(&full.image, &out.image, false)?.0.flip,
+                    None => 0.0,
+                };
+                if let Some(dir) = &a.output {
+                    let stem = format!("view{view}-{}", run.key);
+                    crate::io::write_image(&out.image, &dir.join(format!("{stem}.exr")), 0.0)?;
+                    let names = source_names(&l.scene, selection.as_ref(), out.counters.sources.len());
+                    let doc = render_json(
+                        &l,
+                        &settings,
+                        &out,
+                        selection.as_ref(),
+                        &select_settings,
+                        &names,
+                        threads,
+                        json!(rt.to_json(rt.get("render").unwrap_or(0.0))),
+                    );
+                    write_json(&dir.join(format!("{stem}.json")), &doc)?;
+                }
+                runs.push((out, flip));
+            }
+            results.push((view, runs));
+        }
+        let saved = |rays: u64, base: u64| crate::stats::percent_saved(rays, base);
+        if a.json {
+            let doc: Vec<serde_json::Value> = results
                 .iter()
-                .zip(&names)
-                .map(|(s, (name, kind))| {
-                    json!({
-                        "name": name,
-                        "kind": kind,
-                        "hits": s.hits,
-                        "shadow_rays": s.shadow_rays,
-                        "rays_per_hit": if c.diffuse_hits > 0 { s.shadow_rays as f64 / c.diffuse_hits as f64 } else { 0.0 },
-                    })
+                .map(|(view, runs)| {
+                    let base = runs[0].0.counters.shadow_rays;
+                    let mut v = json!({ "view": view });
+                    for (run, (out, flip)) in RUNS.iter().zip(runs) {
+                        let c = &out.counters;
+                        v[run.key] = json!({
+                            "diffuse_hits": c.diffuse_hits,
+                            "shadow_rays": c.shadow_rays,
+                            "shadow_rays_per_hit": c.rays_per_hit(),
+                            "shadow_rays_saved_percent": saved(c.shadow_rays, base),
+                            "flip_vs_norm": flip,
+                            "levels": out.levels,
+                        });
+                    }
+                    v
                 })
                 .collect();
-            let doc = json!({
-                "scene": scene.path,
-                "view": a.view,
-                "method": a.method,
-                "width": settings.width,
-                "height": settings.height,
-                "spp": settings.spp,
-                "seed": settings.seed,
-                "area_samples": settings.area_samples,
-                "max_depth": settings.max_depth,
-                "filter": settings.filter,
-                "threads": threads,
-                "triangles": bvh.triangle_count(),
-                "lights": scene.lights.len(),
-                "primary_rays": c.primary_rays,
-                "shadow_rays": c.shadow_rays,
-                "diffuse_hits": c.diffuse_hits,
-                "reflection_rays": c.reflection_rays,
-                "shadow_rays_per_hit": c.rays_per_hit(),
-                "sources": sources,
-                "solve": solution.as_ref().map(solve_json),
-                "selection": selection.as_ref().map(|sel| selection_json(sel, &select_settings)),
-                "time_s": t.to_json(total.elapsed().as_secs_f64()),
-            });
-            let text = serde_json::to_string_pretty(&doc).expect("stats serialise") + "\n";
-            crate::io::write_atomic(path, text.as_bytes())?;
+            println!(
+                "{}",
+                serde_json::to_string_pretty(&json!({
+                    "scene": l.scene.path,
+                    "views": doc,
+                    "time_s": total.elapsed().as_secs_f64(),
+                }))
+                .expect("json")
+            );
+            return Ok(());
+        }
+        let mut t1 = Vec::new();
+        let mut t2 = Vec::new();
+        let mut t3 = Vec::new();
+        for (view, runs) in &results {
+            let fig = letter(*view);
+            let base = runs[0].0.counters.shadow_rays;
+            for (label, k) in [(format!("{fig} fully sampled"), 0), (format!("{fig} local"), 1)] {
+                let c = &runs[k].0.counters;
+                t1.push(vec![
+                    label,
+                    c.diffuse_hits.to_string(),
+                    c.shadow_rays.to_string(),
+                    format!("{:.1}", c.rays_per_hit()),
+                    format!("{:.0}", saved(c.shadow_rays, base)),
+                    format!("{:.4}", runs[k].1),
+                ]);
+            }
+            for r in crate::stats::table2_rows(&runs[2].0.levels) {
+                let mut row = vec![format!("{fig} SIB")];
+                row.extend(r);
+                t2.push(row);
+            }
+            let c = &runs[2].0.counters;
+            t2.push(vec![
+                format!("{fig} SIB"),
+                "all".into(),
+                c.diffuse_hits.to_string(),
+                c.shadow_rays.to_string(),
+                c.shadow_rays_saved.to_string(),
+                String::new(),
+                format!("{:.0}", saved(c.shadow_rays, base)),
+            ]);
+            for (label, k) in [
+                (format!("{fig} fully sampled"), 0),
+                (format!("{fig} local and SIB"), 3),
+            ] {
+                let c = &runs[k].0.counters;
+                t3.push(vec![
+                    label,
+                    c.diffuse_hits.to_string(),
+                    c.shadow_rays.to_string(),
+                    format!("{:.1}", c.rays_per_hit()),
+                    format!("{:.0}", saved(c.shadow_rays, base)),
+                    format!("{:.4}", runs[k].1),
+                ]);
+            }
+        }
+        let sizes: Vec<String> = results
+            .iter()
+            .map(|(v, runs)| {
+                let img = &runs[0].0.image;
+                format!("view {v} = {}: {}x{}", letter(*v), img.width, img.height)
+            })
+            .collect();
+        println!(
+            "{} (adaptive to level {}, contrast {}, seed {}; {})\n",
+            l.scene.path.display(),
+            a.refine.max_level,
+            a.refine.contrast,
+            a.image.seed,
+            sizes.join(", ")
+        );
+        print!(
+            "{}",
+            crate::stats::format_table(
+                "Table 1. Results for norm and local selection pictures",
+                &[
+                    "Figure",
+                    "No. of diffuse hits",
+                    "No. of shadow rays",
+                    "Shadow rays per hit",
+                    "% Shadow rays saved",
+                    "FLIP vs fully sampled"
+                ],
+                &t1
+            )
+        );
+        println!();
+        print!("{}", crate::stats::format_table("Table 2. Shadow image buffer results (norm with SIB; 'all': saved against the fully sampled picture)", &TABLE2_HEADERS, &t2));
+        println!();
+        print!(
+            "{}",
+            crate::stats::format_table(
+                "Table 3. Combined local selection and shadow image buffer results",
+                &[
+                    "Figure",
+                    "No. of diffuse hits",
+                    "No. of shadow rays",
+                    "No. of shadow rays per hit",
+                    "% Shadow rays saved",
+                    "FLIP vs fully sampled"
+                ],
+                &t3
+            )
+        );
+        let sib_flips: Vec<String> = results
+            .iter()
+            .map(|(v, runs)| format!("{}: {:.4}", letter(*v), runs[2].1))
+            .collect();
+        println!(
+            "\nFLIP of norm with SIB vs fully sampled: {}",
+            sib_flips.join(", ")
+        );
+        if !a.quiet {
+            eprintln!("radtrace: tables in {:.1} s", total.elapsed().as_secs_f64());
         }
         Ok(())
     })

@@ -19,6 +19,8 @@ pub struct Counters {
     pub diffuse_hits: u64,
     /// Mirror reflection rays traced.
     pub reflection_rays: u64,
+    /// Shadow rays not cast because the shadow image buffer's neighbours agreed.
+    pub shadow_rays_saved: u64,
     /// Per ray-traced source (the scene's lights first, in order, then selected
     /// radiant patches): the diffuse hits that sampled it and the shadow rays cast.
     pub sources: Vec<SourceCount>,
@@ -58,6 +60,7 @@ impl AddAssign for Counters {
         self.shadow_rays += o.shadow_rays;
         self.diffuse_hits += o.diffuse_hits;
         self.reflection_rays += o.reflection_rays;
+        self.shadow_rays_saved += o.shadow_rays_saved;
         if self.sources.len() < o.sources.len() {
             self.sources.resize(o.sources.len(), SourceCount::default());
         }
@@ -169,6 +172,84 @@ pub fn table1(
     out
 }
 
+/// Counts of one level of the adaptive sampler (the paper's Table 2).
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
+pub struct LevelStats {
+    /// The level (-1, 0, 1, ...).
+    pub level: i32,
+    /// Samples (primary rays) taken at this level.
+    pub samples: u64,
+    /// Diffuse hits, of the primary rays and of their reflections.
+    pub diffuse_hits: u64,
+    /// Shadow rays cast.
+    pub shadow_rays: u64,
+    /// Shadow rays not cast because the SIB's neighbours agreed.
+    pub shadow_rays_saved: u64,
+}
+
+/// Percentage of `saved` in `saved + cast` (0 when both are 0).
+fn percent_of(saved: u64, cast: u64) -> f64 {
+    if saved + cast == 0 {
+        0.0
+    } else {
+        100.0 * saved as f64 / (saved + cast) as f64
+    }
+}
+
+/// The paper's Table 2 rows for one render: level, diffuse hits, shadow rays, shadow
+/// rays saved, % saved at the level and % saved cumulatively (levels so far).
+pub fn table2_rows(levels: &[LevelStats]) -> Vec<[String; 6]> {
+    let (mut saved, mut cast) = (0u64, 0u64);
+    levels
+        .iter()
+        .map(|l| {
+            saved += l.shadow_rays_saved;
+            cast += l.shadow_rays;
+            [
+                l.level.to_string(),
+                l.diffuse_hits.to_string(),
+                l.shadow_rays.to_string(),
+                l.shadow_rays_saved.to_string(),
+                format!("{:.0}", percent_of(l.shadow_rays_saved, l.shadow_rays)),
+                format!("{:.0}", percent_of(saved, cast)),
+            ]
+        })
+        .collect()
+}
+
+/// A text table: `title`, then the column headers and rows, each column as wide as
+/// its widest cell; the first column left-aligned, the others right-aligned.
+pub fn format_table(title: &str, headers: &[&str], rows: &[Vec<String>]) -> String {
+    use std::fmt::Write;
+    let mut width: Vec<usize> = headers.iter().map(|h| h.len()).collect();
+    for r in rows {
+        for (k, c) in r.iter().enumerate() {
+            if k < width.len() {
+                width[k] = width[k].max(c.len());
+            }
+        }
+    }
+    let line = |cells: &mut dyn Iterator<Item = &str>| {
+        let mut out = String::new();
+        for (k, c) in cells.enumerate() {
+            if k == 0 {
+                let _ = write!(out, "{c:<w$}", w = width[0]);
+            } else {
+                let _ = write!(out, "  {c:>w$}", w = width[k]);
+            }
+        }
+        out.trim_end().to_string()
+    };
+    let mut out = format!("{title}\n");
+    out += &line(&mut headers.iter().copied());
+    out.push('\n');
+    for r in rows {
+        out += &line(&mut r.iter().map(String::as_str));
+        out.push('\n');
+    }
+    out
+}
+
 /// Wall-clock seconds per pass, in the order the passes ran; `total` is added on output.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Timings {
@@ -217,6 +298,7 @@ mod tests {
             shadow_rays: 2,
             diffuse_hits: 3,
             reflection_rays: 4,
+            shadow_rays_saved: 5,
             sources: vec![src(1, 2)],
         };
         a += Counters {
@@ -224,6 +306,7 @@ mod tests {
             shadow_rays: 20,
             diffuse_hits: 30,
             reflection_rays: 40,
+            shadow_rays_saved: 50,
             sources: vec![src(10, 20), src(5, 6)],
         };
         assert_eq!(
@@ -233,6 +316,7 @@ mod tests {
                 shadow_rays: 22,
                 diffuse_hits: 33,
                 reflection_rays: 44,
+                shadow_rays_saved: 55,
                 sources: vec![src(11, 22), src(5, 6)],
             }
         );
@@ -293,6 +377,36 @@ mod tests {
         assert!(t
             .lines()
             .any(|l| l.starts_with("local") && l.trim_end().ends_with('-')));
+    }
+
+    #[test]
+    fn table2_reproduces_the_papers_percentages() {
+        // The paper's Table 2, Fig. 8a: levels -1..2.
+        let l = |level, diffuse_hits, shadow_rays, shadow_rays_saved| LevelStats {
+            level,
+            samples: 0,
+            diffuse_hits,
+            shadow_rays,
+            shadow_rays_saved,
+        };
+        let levels = [
+            l(-1, 65795, 6_908_657, 0),
+            l(0, 196_549, 3_022_652, 17_669_301),
+            l(1, 61001, 4_718_431, 1_368_025),
+            l(2, 131_844, 9_710_946, 2_971_650),
+        ];
+        let rows = table2_rows(&levels);
+        let pct: Vec<(&str, &str)> = rows.iter().map(|r| (r[4].as_str(), r[5].as_str())).collect();
+        assert_eq!(pct, [("0", "0"), ("85", "64"), ("22", "57"), ("23", "47")]);
+        let t = format_table(
+            "Table 2",
+            &["Figure", "Level", "No. of diffuse hits"],
+            &[vec!["8a".into(), "-1".into(), "65795".into()]],
+        );
+        assert_eq!(
+            t,
+            "Table 2\nFigure  Level  No. of diffuse hits\n8a         -1                65795\n"
+        );
     }
 
     #[test]

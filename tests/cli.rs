@@ -402,6 +402,10 @@ fn the_repository_scenes_load_and_render_small() {
             "1",
             "--area-samples",
             "4",
+            "--mesh-size",
+            "0.4",
+            "--shoot-samples",
+            "8",
             "-q",
         ]);
         args.extend(extra.iter().copied());
@@ -534,4 +538,141 @@ fn solve_once_then_render_with_the_saved_solution() {
         &["solve", &s(&scene), "-o", &s(&sol), "--mesh-size", "-1"],
         "--mesh-size",
     );
+}
+
+#[test]
+fn adaptive_render_reports_levels_and_writes_the_sib_pictures() {
+    let d = tmp();
+    let scene = write_scene(d.path(), PLANE_SCENE);
+    let (out, stats, pics) = (
+        d.path().join("a.exr"),
+        d.path().join("s.json"),
+        d.path().join("pics"),
+    );
+    let o = radtrace(&[
+        "render",
+        &s(&scene),
+        "-o",
+        &s(&out),
+        "--method",
+        "direct",
+        "--sib",
+        "on",
+        "--stats",
+        &s(&stats),
+        "--sib-images",
+        &s(&pics),
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    assert_eq!(
+        (j["sampler"].as_str(), j["sib"].as_bool()),
+        (Some("adaptive"), Some(true))
+    );
+    let levels = j["levels"].as_array().unwrap();
+    assert_eq!(levels[0]["level"], -1);
+    // 33 x 33 pixels: 17 x 17 blocks at level -1, the other pixels at level 0.
+    assert_eq!(levels[0]["samples"], 17 * 17);
+    assert_eq!(levels[1]["samples"], 33 * 33 - 17 * 17);
+    let sum = |k: &str| levels.iter().map(|l| l[k].as_u64().unwrap()).sum::<u64>();
+    assert_eq!(sum("samples"), j["primary_rays"].as_u64().unwrap());
+    assert_eq!(sum("shadow_rays"), j["shadow_rays"].as_u64().unwrap());
+    // No occluder: after level -1 every shadow result comes from the SIB.
+    assert_eq!(j["shadow_rays"], 17 * 17);
+    assert_eq!(j["shadow_rays_saved"], sum("samples") - 17 * 17);
+    for f in ["density.png", "rays.png", "sib-00-point_0.png"] {
+        assert!(
+            pics.join(f).exists(),
+            "{f}: {:?}",
+            std::fs::read_dir(&pics).unwrap().collect::<Vec<_>>()
+        );
+    }
+    let img = radtrace::io::read_image(&out).unwrap();
+    let centre = img.pixels[(16 * 33 + 16) as usize];
+    let expect = 0.5 / std::f32::consts::PI * 10.0 / 4.0;
+    assert!(
+        (centre.x - expect).abs() < 0.01 * expect,
+        "{centre:?} vs {expect}"
+    );
+}
+
+#[test]
+fn sampler_flags_that_do_not_fit_are_refused() {
+    let d = tmp();
+    let scene = write_scene(d.path(), PLANE_SCENE);
+    let out = s(&d.path().join("x.exr"));
+    let base = ["render", &s(&scene), "-o", &out, "--method", "direct"];
+    let with = |extra: &[&'static str]| {
+        let mut v: Vec<&str> = base.to_vec();
+        v.extend_from_slice(extra);
+        v.into_iter().map(String::from).collect::<Vec<String>>()
+    };
+    for (extra, needle) in [
+        (&["--sampler", "adaptive", "--spp", "4"][..], "--spp"),
+        (&["--sampler", "uniform", "--sib", "on"][..], "--sib on"),
+        (&["--spp", "2", "--sib-images", "pics"][..], "--sib-images"),
+        (&["--contrast", "2"][..], "--contrast"),
+        (&["--max-level", "9"][..], "--max-level"),
+    ] {
+        let args = with(extra);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        expect_error(&args, needle);
+    }
+}
+
+#[test]
+fn tables_reproduce_the_papers_three_tables() {
+    let d = tmp();
+    let cornell = repo("scenes/cornell-box/cornell-box.xml");
+    let common = [
+        "tables",
+        &cornell,
+        "--width",
+        "40",
+        "--height",
+        "40",
+        "--mesh-size",
+        "0.3",
+        "--shoot-samples",
+        "16",
+        "-q",
+    ];
+    let mut args = common.to_vec();
+    args.push("--json");
+    let o = radtrace(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let v = &j["views"][0];
+    let rays = |k: &str| v[k]["shadow_rays"].as_u64().unwrap();
+    // The fully sampled picture casts the most; the SIB and local selection save.
+    assert!(rays("norm-sib") < rays("norm"), "{v}");
+    assert!(rays("local") < rays("norm"), "{v}");
+    assert!(rays("local-sib") <= rays("local"), "{v}");
+    assert_eq!(v["norm"]["flip_vs_norm"], 0.0);
+    for k in ["local", "norm-sib", "local-sib"] {
+        let f = v[k]["flip_vs_norm"].as_f64().unwrap();
+        assert!((0.0..0.2).contains(&f), "{k}: FLIP {f}");
+    }
+    assert_eq!(v["norm-sib"]["levels"][0]["level"], -1);
+    // As text, with the images written out.
+    let outdir = d.path().join("t");
+    let mut args = common.to_vec();
+    args.extend(["-o", outdir.to_str().unwrap()]);
+    let o = radtrace(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    for t in [
+        "Table 1.",
+        "Table 2.",
+        "Table 3.",
+        "a fully sampled",
+        "a local and SIB",
+        "a SIB",
+    ] {
+        assert!(text.contains(t), "missing '{t}' in\n{text}");
+    }
+    for f in ["view0-norm.exr", "view0-local-sib.exr", "view0-norm-sib.json"] {
+        assert!(outdir.join(f).exists(), "{f}");
+    }
 }

@@ -1,8 +1,10 @@
 //! Image samples and their reconstruction into pixels with a filter.
 //!
 //! Samples are kept (position and radiance) and pixels are made afterwards as a
-//! weighted average of the samples near each pixel centre: the paper's "weighted
-//! average of the samples within the pixel areas" is the `box` filter; the default
+//! weighted average of the samples near each pixel centre, each sample weighted by the
+//! filter and by its share of its own pixel (1 / the pixel's samples, so that pixels
+//! the adaptive sampler refined do not outweigh their neighbours): the paper's
+//! "weighted average of the samples within the pixel areas" is the `box` filter; the default
 //! `gaussian` is Mitsuba's (standard deviation 0.5 pixel, radius 2 pixels), so that
 //! images compare with Mitsuba's at edges.
 
@@ -138,8 +140,10 @@ impl SampleBuffer {
                     let mut wsum = 0.0;
                     for ny in (y as i64 - reach).max(0)..=(y as i64 + reach).min(h as i64 - 1) {
                         for nx in (x as i64 - reach).max(0)..=(x as i64 + reach).min(w as i64 - 1) {
-                            for s in self.pixel(nx as u32, ny as u32) {
-                                let wgt = filter.eval(s.x - cx) * filter.eval(s.y - cy);
+                            let samples = self.pixel(nx as u32, ny as u32);
+                            let share = 1.0 / samples.len().max(1) as f32;
+                            for s in samples {
+                                let wgt = filter.eval(s.x - cx) * filter.eval(s.y - cy) * share;
                                 if wgt > 0.0 {
                                     sum += s.value * wgt;
                                     wsum += wgt;

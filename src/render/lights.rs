@@ -1,8 +1,14 @@
 //! Light sources prepared for sampling: a light *point* on each source, with the
 //! light it sends to a receiving point.
 //!
-//! A point or spot light is one light point. An area light is sampled at stratified
-//! points over its surface (the paper's sub-sources).
+//! A point or spot light is one light point. An area light (or a selected radiant
+//! patch) is split into `n` *sub-sources* of equal area (the paper's Sect. 5 and 7: "both
+//! area light sources are subdivided into 64 small light sources"): consecutive
+//! stretches of a Hilbert curve over the emitter's sampling square, so that each
+//! sub-source, and each run of consecutive sub-sources, is a compact piece of the
+//! emitter. A patch that asks for fewer rays than there are sub-sources groups them
+//! ([`group_bounds`]); each ray goes to a jittered point of its group
+//! ([`sub_source_uv`]).
 
 use glam::{Vec2, Vec3};
 
@@ -39,6 +45,10 @@ pub struct AreaEmitter {
     /// For a radiant patch sampled like a light (paper Sect. 6): the radiance at the
     /// corners of each triangle, interpolated linearly; empty for light sources.
     pub corner_radiance: Vec<[Rgb; 3]>,
+    /// When the emitter is one parallelogram (two triangles; every `rectangle`), its
+    /// corner and edges: the sampling square maps onto it linearly, so sub-sources are
+    /// small parallelograms.
+    parallelogram: Option<[Vec3; 3]>,
 }
 
 /// A light source ready for sampling.
@@ -204,6 +214,11 @@ impl AreaEmitter {
         for c in &mut cdf {
             *c /= total;
         }
+        let parallelogram = if corners.is_empty() {
+            parallelogram(&kept)
+        } else {
+            None
+        };
         AreaEmitter {
             tris: kept,
             normals,
@@ -211,6 +226,7 @@ impl AreaEmitter {
             area: total,
             radiance,
             corner_radiance: corners,
+            parallelogram,
         }
     }
 
@@ -219,6 +235,9 @@ impl AreaEmitter {
     fn sample(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
         if self.tris.is_empty() {
             return None;
+        }
+        if let Some([o, e1, e2]) = self.parallelogram {
+            return self.light_sample(p, o + e1 * u.x + e2 * u.y, 0, self.radiance);
         }
         let i = self.cdf.partition_point(|&c| c <= u.x).min(self.tris.len() - 1);
         let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
@@ -232,6 +251,15 @@ impl AreaEmitter {
         let (b1, b2) = (s * (1.0 - u.y), s * u.y);
         let [a, b, c] = self.tris[i];
         let point = a + (b - a) * b1 + (c - a) * b2;
+        let radiance = match self.corner_radiance.get(i) {
+            Some([ra, rb, rc]) => *ra * (1.0 - b1 - b2) + *rb * b1 + *rc * b2,
+            None => self.radiance,
+        };
+        self.light_sample(p, point, i, radiance)
+    }
+
+    /// The sample at `point` of triangle `i` with `radiance`, seen from `p`.
+    fn light_sample(&self, p: Vec3, point: Vec3, i: usize, radiance: Rgb) -> Option<LightSample> {
         let d = point - p;
         let dist2 = d.length_squared();
         let dist = dist2.sqrt();
@@ -243,10 +271,6 @@ impl AreaEmitter {
         if !(cos_l > 0.0) {
             return None;
         }
-        let radiance = match self.corner_radiance.get(i) {
-            Some([ra, rb, rc]) => *ra * (1.0 - b1 - b2) + *rb * b1 + *rc * b2,
-            None => self.radiance,
-        };
         Some(LightSample {
             point,
             dir,
@@ -257,9 +281,158 @@ impl AreaEmitter {
     }
 }
 
+/// The corner and edges of the parallelogram two triangles form, if they do: they
+/// share an edge, and the corners off it are symmetric about its midpoint.
+fn parallelogram(tris: &[[Vec3; 3]]) -> Option<[Vec3; 3]> {
+    let [t, u] = tris else { return None };
+    // Rotate t so that its corners 1 and 2 are the shared edge.
+    for k in 0..3 {
+        let (a, s0, s1) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+        let shared = |x: Vec3| u.contains(&x);
+        if !(shared(s0) && shared(s1)) {
+            continue;
+        }
+        let d = *u.iter().find(|&&y| y != s0 && y != s1)?;
+        let scale = (s1 - s0).length() + (d - a).length();
+        if ((a + d) - (s0 + s1)).length() > 1e-5 * scale {
+            return None;
+        }
+        return Some([a, s0 - a, s1 - a]);
+    }
+    None
+}
+
+/// Sub-sources `[g n / r, (g+1) n / r)` of `n`: group `g` of `r`. Groups are runs of
+/// consecutive sub-sources, as equal as whole sub-sources allow; `r` is at most `n`.
+pub fn group_bounds(g: u32, r: u32, n: u32) -> (u32, u32) {
+    let r = r.clamp(1, n.max(1)) as u64;
+    let n = n as u64;
+    ((g as u64 * n / r) as u32, ((g as u64 + 1) * n / r) as u32)
+}
+
+/// A point, uniform over sub-sources `[start, end)` of `n`, of the emitter's sampling
+/// square: `xi[0]` picks the place along the Hilbert curve, `xi[1..]` jitters within
+/// the curve's finest cell. The curve's stretch `[k/n, (k+1)/n)` is sub-source k; the
+/// curve is measure preserving, so sub-sources have equal area.
+pub fn sub_source_uv(start: u32, end: u32, n: u32, xi: [f32; 3]) -> Vec2 {
+    const ORDER: u32 = 16;
+    let t = (start as f64 + xi[0] as f64 * (end - start) as f64) / n.max(1) as f64;
+    let cells = 1u64 << (2 * ORDER);
+    let d = ((t * cells as f64) as u64).min(cells - 1);
+    let (x, y) = hilbert_d2xy(ORDER, d);
+    let side = (1u32 << ORDER) as f32;
+    Vec2::new(
+        ((x as f32 + xi[1]) / side).min(1.0 - f32::EPSILON),
+        ((y as f32 + xi[2]) / side).min(1.0 - f32::EPSILON),
+    )
+}
+
+/// Cell `(x, y)` visited `d`-th by the Hilbert curve over a `2^order` square grid.
+pub fn hilbert_d2xy(order: u32, d: u64) -> (u32, u32) {
+    let (mut x, mut y, mut t) = (0u32, 0u32, d);
+    let mut s = 1u32;
+    while order > 0 && s < (1u32 << order) {
+        let rx = (1 & (t / 2)) as u32;
+        let ry = (1 & (t ^ rx as u64)) as u32;
+        if ry == 0 {
+            if rx == 1 {
+                x = s - 1 - x;
+                y = s - 1 - y;
+            }
+            std::mem::swap(&mut x, &mut y);
+        }
+        x += s * rx;
+        y += s * ry;
+        t /= 4;
+        s *= 2;
+    }
+    (x, y)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn hilbert_curve_visits_every_cell_once_in_adjacent_steps() {
+        let order = 3;
+        let mut seen = [[false; 8]; 8];
+        let mut last = None;
+        for d in 0..64 {
+            let (x, y) = hilbert_d2xy(order, d);
+            assert!(!seen[x as usize][y as usize]);
+            seen[x as usize][y as usize] = true;
+            if let Some((lx, ly)) = last {
+                let step = (x as i32 - lx as i32).abs() + (y as i32 - ly as i32).abs();
+                assert_eq!(step, 1, "step {d}");
+            }
+            last = Some((x, y));
+        }
+    }
+
+    #[test]
+    fn sub_sources_are_cells_and_groups_are_compact_blocks() {
+        // 64 sub-sources are the cells of an 8 x 8 grid.
+        let mut cells = std::collections::BTreeSet::new();
+        for k in 0..64 {
+            let lo = sub_source_uv(k, k + 1, 64, [0.0, 0.0, 0.0]);
+            let hi = sub_source_uv(k, k + 1, 64, [0.999_99, 0.999, 0.999]);
+            let c = ((lo.x * 8.0) as u32, (lo.y * 8.0) as u32);
+            assert_eq!(c, ((hi.x * 8.0) as u32, (hi.y * 8.0) as u32), "{k}");
+            cells.insert(c);
+        }
+        assert_eq!(cells.len(), 64);
+        // 16 groups of 64: each group is a 2 x 2 block of cells (a quarter of a side).
+        for g in 0..16 {
+            let (a, b) = group_bounds(g, 16, 64);
+            assert_eq!(b - a, 4);
+            let (mut lo, mut hi) = (Vec2::splat(1.0), Vec2::ZERO);
+            for i in 0..200 {
+                let f = i as f32 / 200.0;
+                let uv = sub_source_uv(a, b, 64, [f, 0.5, 0.5]);
+                lo = lo.min(uv);
+                hi = hi.max(uv);
+            }
+            assert!((hi - lo).max_element() <= 0.25, "group {g}: {lo:?}..{hi:?}");
+        }
+        // Groups partition the sub-sources whatever r.
+        for r in [1, 3, 7, 37, 64] {
+            let mut next = 0;
+            for g in 0..r {
+                let (a, b) = group_bounds(g, r, 64);
+                assert_eq!(a, next);
+                assert!(b > a);
+                next = b;
+            }
+            assert_eq!(next, 64);
+        }
+    }
+
+    #[test]
+    fn a_rectangle_light_is_sampled_as_a_parallelogram() {
+        let a = Vec3::new(0.0, 0.0, 1.0);
+        let (x, y) = (Vec3::X * 2.0, Vec3::Y);
+        // Mitsuba's rectangle winding [0,1,2], [0,2,3], facing down.
+        let tris = vec![[a, a + y, a + x + y], [a, a + x + y, a + x]];
+        let e = AreaEmitter::new(tris, Vec3::ONE, Vec::new());
+        assert!(e.parallelogram.is_some());
+        let below = Vec3::new(1.0, 0.5, 0.0);
+        let s = e.sample(below, Vec2::new(0.25, 0.75)).unwrap();
+        let [o, e1, e2] = e.parallelogram.unwrap();
+        assert!((s.point - (o + e1 * 0.25 + e2 * 0.75)).length() < 1e-6);
+        // The corners of the unit square reach the four corners.
+        let mut corners: Vec<Vec3> = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
+            .iter()
+            .map(|&(u, v)| o + e1 * u + e2 * v)
+            .collect();
+        corners.sort_by(|p, q| (p.x, p.y).partial_cmp(&(q.x, q.y)).unwrap());
+        assert_eq!(corners, vec![a, a + y, a + x, a + x + y]);
+        // A triangle pair that is not a parallelogram keeps the triangle sampling.
+        let kite = vec![[a, a + y, a + x + y], [a, a + x + y, a + x * 0.5]];
+        assert!(AreaEmitter::new(kite, Vec3::ONE, Vec::new())
+            .parallelogram
+            .is_none());
+    }
 
     #[test]
     fn spot_falloff_matches_mitsuba() {

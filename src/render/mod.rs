@@ -6,11 +6,13 @@
 //! others shade from a radiosity solution and ray trace the sources a
 //! [`crate::selection::Selection`] picked for the patch hit.
 
+pub mod adaptive;
 pub mod bsdf;
 pub mod camera;
 pub mod film;
 pub mod lights;
 pub mod shading;
+pub mod sib;
 
 use std::time::Instant;
 
@@ -25,6 +27,8 @@ use crate::selection::Selection;
 use crate::stats::Counters;
 use crate::{Error, Result};
 
+pub use crate::stats::LevelStats;
+pub use adaptive::{Refine, SampleSet};
 pub use camera::Camera;
 pub use film::{FilmSample, Filter, SampleBuffer};
 pub use lights::SampledLight;
@@ -58,6 +62,19 @@ impl Method {
     }
 }
 
+/// How the image is sampled.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Sampler {
+    /// The paper's adaptive refinement (levels -1 to `--max-level`) with the shadow
+    /// image buffer.
+    #[default]
+    Adaptive,
+    /// `--spp` jittered samples in every pixel (Owen-scrambled Sobol), every shadow ray
+    /// cast.
+    Uniform,
+}
+
 /// Everything that controls one rendering of one view.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
@@ -79,6 +96,10 @@ pub struct Settings {
     pub max_depth: u32,
     /// Pixel reconstruction filter.
     pub filter: Filter,
+    /// The image sampler.
+    pub sampler: Sampler,
+    /// The adaptive sampler's levels, criteria and SIB switch (unused by `uniform`).
+    pub refine: Refine,
 }
 
 /// What one rendering produces.
@@ -88,13 +109,18 @@ pub struct Output {
     pub image: Image,
     /// Event counts.
     pub counters: Counters,
+    /// Counts per level of the adaptive sampler (empty for `uniform`).
+    pub levels: Vec<LevelStats>,
+    /// The adaptive sampler's samples and shadow image buffer.
+    pub samples: Option<SampleSet>,
     /// Seconds spent tracing and shading.
     pub trace_s: f64,
     /// Seconds spent reconstructing pixels.
     pub reconstruct_s: f64,
 }
 
-/// Renders one view of `scene`. `progress` (if given) advances by one per image row.
+/// Renders one view of `scene`. `progress(label, work)` makes a progress bar for each
+/// stage (each level of the adaptive sampler; image rows for the uniform one).
 /// `selection` (made by [`crate::selection::select`] from a radiosity solution) is
 /// required by every method but `direct`, which ignores it.
 pub fn render(
@@ -102,7 +128,7 @@ pub fn render(
     accel: &dyn Accel,
     settings: &Settings,
     selection: Option<&Selection>,
-    progress: Option<&ProgressBar>,
+    progress: &dyn Fn(&str, u64) -> ProgressBar,
 ) -> Result<Output> {
     let tracer = match (settings.method, selection) {
         (Method::Direct, _) => Tracer::new(scene, accel, settings),
@@ -115,9 +141,36 @@ pub fn render(
         }
     };
     let sensor = scene.sensor(settings.view)?;
-    let (w, h) = (settings.width, settings.height);
-    let camera = Camera::new(sensor, w, h);
+    let camera = Camera::new(sensor, settings.width, settings.height);
+    match settings.sampler {
+        Sampler::Adaptive => {
+            let start = Instant::now();
+            let out = adaptive::render_adaptive(&tracer, &camera, settings, &settings.refine, progress);
+            let trace_s = start.elapsed().as_secs_f64();
+            let start = Instant::now();
+            let image = out.set.reconstruct(settings.filter);
+            Ok(Output {
+                image,
+                counters: out.counters,
+                levels: out.levels,
+                samples: Some(out.set),
+                trace_s,
+                reconstruct_s: start.elapsed().as_secs_f64(),
+            })
+        }
+        Sampler::Uniform => Ok(render_uniform(&tracer, &camera, settings, progress)),
+    }
+}
 
+/// `settings.spp` jittered samples in every pixel.
+fn render_uniform(
+    tracer: &Tracer,
+    camera: &Camera,
+    settings: &Settings,
+    progress: &dyn Fn(&str, u64) -> ProgressBar,
+) -> Output {
+    let (w, h) = (settings.width, settings.height);
+    let pb = progress("render", h as u64);
     let start = Instant::now();
     let rows: Vec<(Vec<FilmSample>, Counters)> = (0..h)
         .into_par_iter()
@@ -139,15 +192,14 @@ pub fn render(
                     samples.push(FilmSample { x: fx, y: fy, value });
                 }
             }
-            if let Some(p) = progress {
-                p.inc(1);
-            }
+            pb.inc(1);
             (samples, counters)
         })
         .collect();
+    pb.finish_and_clear();
     let trace_s = start.elapsed().as_secs_f64();
 
-    let mut counters = Counters::default();
+    let mut counters = Counters::with_sources(tracer.source_count());
     let mut sample_rows = Vec::with_capacity(rows.len());
     for (s, c) in rows {
         counters += c;
@@ -155,12 +207,19 @@ pub fn render(
     }
     let start = Instant::now();
     let image = SampleBuffer::from_rows(w, h, sample_rows).reconstruct(settings.filter);
-    Ok(Output {
+    Output {
         image,
         counters,
+        levels: Vec::new(),
+        samples: None,
         trace_s,
         reconstruct_s: start.elapsed().as_secs_f64(),
-    })
+    }
+}
+
+/// A progress-bar maker for [`render`] that shows nothing.
+pub fn no_progress(_: &str, _: u64) -> ProgressBar {
+    ProgressBar::hidden()
 }
 
 /// A 32-bit seed for pixel `(x, y)` of a view, from the user's seed.

@@ -2,12 +2,13 @@
 
 use glam::{Vec2, Vec3};
 
-use super::lights::SampledLight;
+use super::lights::{group_bounds, sub_source_uv, SampledLight};
+use super::sib::{self, SibQuery};
 use super::{hash32, Settings};
 use crate::accel::{Accel, Hit, Ray};
 use crate::mesh::RadiosityMesh;
 use crate::scene::{Bsdf, Rgb, Scene};
-use crate::selection::Selection;
+use crate::selection::{Pick, Selection};
 use crate::stats::Counters;
 
 /// The local geometry at a ray hit.
@@ -90,8 +91,9 @@ pub fn ray_epsilon(p: Vec3) -> f32 {
 
 /// Where the light of diffuse surfaces comes from.
 enum Diffuse<'a> {
-    /// Shadow rays to every light source (`--method direct`).
-    Direct,
+    /// Shadow rays to every light source (`--method direct`): these picks on every
+    /// surface.
+    Direct(Vec<Pick>),
     /// The radiosity solution's stored radiosity, interpolated, plus shadow rays to
     /// the sources a selection picked for the patch hit (`twopass`, `norm`, `local`,
     /// `global`).
@@ -107,6 +109,7 @@ pub struct Tracer<'a> {
     accel: &'a dyn Accel,
     /// The ray-traced sources: the scene's lights (`direct`) or the selection's.
     sources: std::borrow::Cow<'a, [SampledLight]>,
+    /// Sub-sources per area source (and the most rays one is sampled with).
     area_samples: u32,
     max_depth: u32,
     diffuse: Diffuse<'a>,
@@ -116,13 +119,23 @@ impl<'a> Tracer<'a> {
     /// A tracer for `scene` with the sampling counts of `settings` that computes
     /// direct light with shadow rays to every light.
     pub fn new(scene: &'a Scene, accel: &'a dyn Accel, settings: &Settings) -> Self {
+        let sources = SampledLight::prepare_all(scene);
+        let area_samples = settings.area_samples.max(1);
+        let picks = sources
+            .iter()
+            .enumerate()
+            .map(|(i, l)| Pick {
+                source: i as u32,
+                rays: if l.is_area() { area_samples } else { 1 },
+            })
+            .collect();
         Tracer {
             scene,
             accel,
-            sources: SampledLight::prepare_all(scene).into(),
-            area_samples: settings.area_samples.max(1),
+            sources: sources.into(),
+            area_samples,
             max_depth: settings.max_depth,
-            diffuse: Diffuse::Direct,
+            diffuse: Diffuse::Direct(picks),
         }
     }
 
@@ -152,12 +165,38 @@ impl<'a> Tracer<'a> {
         self.sources.len()
     }
 
+    /// Whether each ray-traced source is a point or spot light (one light point).
+    pub fn point_sources(&self) -> Vec<bool> {
+        self.sources.iter().map(|s| !s.is_area()).collect()
+    }
+
     /// Radiance arriving along `ray` (towards its origin). `depth` counts mirror
     /// reflections so far; `seed` decorrelates the light samples of this path.
     pub fn radiance(&self, ray: &Ray, depth: u32, seed: u32, counters: &mut Counters) -> Rgb {
+        self.trace(ray, depth, seed, counters, None)
+    }
+
+    /// Radiance along a primary ray whose first diffuse hit decides its shadow rays
+    /// with the shadow image buffer `sib` (and fills its record); deeper diffuse hits
+    /// (seen in mirrors) cast all their rays (paper Sect. 7).
+    pub fn radiance_sib(&self, ray: &Ray, seed: u32, counters: &mut Counters, sib: &mut SibQuery) -> Rgb {
+        self.trace(ray, 0, seed, counters, Some(sib))
+    }
+
+    fn trace(
+        &self,
+        ray: &Ray,
+        depth: u32,
+        seed: u32,
+        counters: &mut Counters,
+        mut sib: Option<&mut SibQuery>,
+    ) -> Rgb {
         let Some(hit) = self.accel.intersect(ray) else {
             return Vec3::ZERO;
         };
+        if let Some(q) = sib.as_deref_mut() {
+            q.object = hit.shape;
+        }
         let sp = SurfacePoint::new(self.scene, ray, &hit);
         let shape = &self.scene.shapes[hit.shape as usize];
         let mut l = Vec3::ZERO;
@@ -179,12 +218,18 @@ impl<'a> Tracer<'a> {
         }
         if bsdf.kind.has_diffuse() {
             counters.diffuse_hits += 1;
+            let shade = Shade {
+                sp: &sp,
+                bsdf,
+                cos_v,
+                seed,
+            };
+            let usable = sib.as_ref().is_some_and(|q| q.usable(hit.shape));
             l += match &self.diffuse {
-                Diffuse::Direct => {
+                Diffuse::Direct(picks) => {
                     let mut sum = Vec3::ZERO;
-                    for (li, light) in self.sources.iter().enumerate() {
-                        let n = if light.is_area() { self.area_samples } else { 1 };
-                        sum += self.sample_source(li, n, &sp, bsdf, cos_v, seed, counters);
+                    for pick in picks {
+                        sum += self.sample_source(*pick, &shade, counters, sib.as_deref_mut(), usable);
                     }
                     sum
                 }
@@ -195,15 +240,7 @@ impl<'a> Tracer<'a> {
                     let mut sum = interp.apply(&selection.stored) * std::f32::consts::FRAC_1_PI;
                     let patch = mesh.vertices[interp.vertices[0] as usize].patch;
                     for pick in selection.picks(patch) {
-                        sum += self.sample_source(
-                            pick.source as usize,
-                            pick.rays,
-                            &sp,
-                            bsdf,
-                            cos_v,
-                            seed,
-                            counters,
-                        );
+                        sum += self.sample_source(*pick, &shade, counters, sib.as_deref_mut(), usable);
                     }
                     sum
                 }
@@ -216,59 +253,103 @@ impl<'a> Tracer<'a> {
                 if dir.dot(sp.ng) > 0.0 {
                     counters.reflection_rays += 1;
                     let refl = sp.spawn(dir, f32::INFINITY);
-                    l += m * self.radiance(&refl, depth + 1, hash32(seed ^ 0x5bd1_e995), counters);
+                    l += m * self.trace(&refl, depth + 1, hash32(seed ^ 0x5bd1_e995), counters, None);
                 }
             }
         }
         l
     }
 
-    /// Direct light at `sp` from ray-traced source `li` with `n` stratified shadow
-    /// rays (a point or spot light takes one whatever `n`).
-    #[allow(clippy::too_many_arguments)]
+    /// Direct light at a diffuse hit from the picked source: `pick.rays` groups of its
+    /// `area_samples` sub-sources, one shadow ray to a jittered point of each (a point
+    /// or spot light is one light point). With a SIB whose neighbours are `usable`, a
+    /// group the neighbours agree on takes their value instead of a ray; the record
+    /// gets every group's result. Light points behind the surface get neither.
     fn sample_source(
         &self,
-        li: usize,
-        n: u32,
-        sp: &SurfacePoint,
-        bsdf: &Bsdf,
-        cos_v: f32,
-        seed: u32,
+        pick: Pick,
+        h: &Shade,
         counters: &mut Counters,
+        mut sib: Option<&mut SibQuery>,
+        usable: bool,
     ) -> Rgb {
+        let li = pick.source as usize;
         let light = &self.sources[li];
-        let n = if light.is_area() { n.max(1) } else { 1 };
-        let light_seed = hash32(seed ^ (li as u32).wrapping_mul(0x85eb_ca6b));
+        let (n, r) = if light.is_area() {
+            (self.area_samples, pick.rays.clamp(1, self.area_samples))
+        } else {
+            (1, 1)
+        };
+        let light_seed = hash32(h.seed ^ pick.source.wrapping_mul(0x85eb_ca6b));
+        let sp = h.sp;
         let mut acc = Vec3::ZERO;
-        let mut cast = 0;
-        for k in 0..n {
-            let u = Vec2::new(
-                sobol_burley::sample(k, 0, light_seed),
-                sobol_burley::sample(k, 1, light_seed),
-            );
-            let Some(s) = light.sample(sp.p, u) else { continue };
+        let (mut cast, mut saved) = (0, 0);
+        for g in 0..r {
+            let (a, b) = group_bounds(g, r, n);
+            let uv = if n > 1 {
+                sub_source_uv(a, b, n, uniforms(light_seed, g))
+            } else {
+                Vec2::ZERO
+            };
+            let Some(s) = light.sample(sp.p, uv) else { continue };
             let cos_l = sp.ns.dot(s.dir);
             // No shadow ray towards a light behind the surface (paper Sect. 6).
             if cos_l <= 0.0 || sp.ng.dot(s.dir) <= 0.0 {
                 continue;
             }
-            cast += 1;
-            let tmax = if s.on_surface {
-                s.dist * (1.0 - 1e-4)
-            } else {
-                s.dist
+            let reused = match &sib {
+                Some(q) if usable => sib::agree(q.neighbours, pick.source, a, b),
+                _ => None,
             };
-            if !self.accel.occluded(&sp.spawn(s.dir, tmax)) {
-                acc += bsdf.kind.diffuse_brdf(cos_l, cos_v) * s.value * cos_l;
+            let visible = match reused {
+                Some(v) => {
+                    saved += 1;
+                    v
+                }
+                None => {
+                    cast += 1;
+                    let tmax = if s.on_surface {
+                        s.dist * (1.0 - 1e-4)
+                    } else {
+                        s.dist
+                    };
+                    !self.accel.occluded(&sp.spawn(s.dir, tmax))
+                }
+            };
+            if let Some(q) = sib.as_deref_mut() {
+                sib::set(q.record, pick.source, a, b, visible);
+            }
+            if visible {
+                let share = (b - a) as f32 / n as f32;
+                acc += h.bsdf.kind.diffuse_brdf(cos_l, h.cos_v) * s.value * (cos_l * share);
             }
         }
         counters.shadow_rays += cast;
+        counters.shadow_rays_saved += saved;
+        if let Some(q) = sib {
+            q.saved += saved;
+        }
         if let Some(c) = counters.sources.get_mut(li) {
             c.hits += 1;
             c.shadow_rays += cast;
         }
-        acc / n as f32
+        acc
     }
+}
+
+/// What the direct light at one diffuse hit is computed for.
+struct Shade<'s> {
+    sp: &'s SurfacePoint,
+    bsdf: &'s Bsdf,
+    cos_v: f32,
+    seed: u32,
+}
+
+/// Three uniform numbers in [0, 1) for group `g` of a light's samples at one hit.
+fn uniforms(seed: u32, g: u32) -> [f32; 3] {
+    let h = super::splitmix64((seed as u64) << 32 | g as u64);
+    let f = |k: u32| ((h >> (k * 21)) & 0x1F_FFFF) as f32 / (1u32 << 21) as f32;
+    [f(0), f(1), f(2)]
 }
 
 #[cfg(test)]
@@ -333,6 +414,8 @@ mod tests {
             area_samples,
             max_depth: 4,
             filter: Filter::Box,
+            sampler: crate::render::Sampler::Uniform,
+            refine: crate::render::Refine::default(),
         }
     }
 

@@ -198,6 +198,8 @@ fn settings(method: Method) -> Settings {
         area_samples: 16,
         max_depth: 2,
         filter: Filter::Box,
+        sampler: crate::render::Sampler::Uniform,
+        refine: crate::render::Refine::default(),
     }
 }
 
@@ -220,7 +222,7 @@ fn no_light_is_counted_twice() {
     let mut means = Vec::new();
     for m in [Method::Twopass, Method::Norm, Method::Local, Method::Global] {
         let sel = select(&s, &sol, m, &st, None).unwrap();
-        let out = render(&s, &bvh, &settings(m), Some(&sel), None).unwrap();
+        let out = render(&s, &bvh, &settings(m), Some(&sel), &crate::render::no_progress).unwrap();
         means.push((m, image_mean(&out.image), out.counters.shadow_rays));
     }
     let norm = means[1].1;
@@ -235,7 +237,14 @@ fn no_light_is_counted_twice() {
     assert!(means.iter().all(|&(_, _, r)| r <= means[1].2), "{means:?}");
     // Norm = direct light by rays + indirect light from the mesh (a closed box of
     // reflectance 0.4..0.6 reflects a lot: more than the direct light).
-    let direct = render(&s, &bvh, &settings(Method::Direct), None, None).unwrap();
+    let direct = render(
+        &s,
+        &bvh,
+        &settings(Method::Direct),
+        None,
+        &crate::render::no_progress,
+    )
+    .unwrap();
     let d = image_mean(&direct.image);
     assert!(1.5 * d < norm && norm < 5.0 * d, "direct {d} norm {norm}");
 }
@@ -284,8 +293,22 @@ fn norm_and_local_agree_where_every_source_is_selected() {
     };
     let norm_sel = select(&s, &sol, Method::Norm, &all, None).unwrap();
     let local_sel = select(&s, &sol, Method::Local, &all, None).unwrap();
-    let norm = render(&s, &bvh, &settings(Method::Norm), Some(&norm_sel), None).unwrap();
-    let local = render(&s, &bvh, &settings(Method::Local), Some(&local_sel), None).unwrap();
+    let norm = render(
+        &s,
+        &bvh,
+        &settings(Method::Norm),
+        Some(&norm_sel),
+        &crate::render::no_progress,
+    )
+    .unwrap();
+    let local = render(
+        &s,
+        &bvh,
+        &settings(Method::Local),
+        Some(&local_sel),
+        &crate::render::no_progress,
+    )
+    .unwrap();
     // Every receiving patch lists both lights, so both methods pick both everywhere.
     for (p, mp) in sol.mesh.patches.iter().enumerate() {
         if mp.reflectance.max_element() > 0.0 && !sol.lists[p].is_empty() {
@@ -336,8 +359,15 @@ fn a_selected_radiant_patch_gives_the_light_it_stored() {
     );
     let mut st = settings(Method::Local);
     st.spp = 16;
-    let a = render(&s, &bvh, &settings(Method::Twopass), Some(&twopass), None).unwrap();
-    let b = render(&s, &bvh, &st, Some(&local), None).unwrap();
+    let a = render(
+        &s,
+        &bvh,
+        &settings(Method::Twopass),
+        Some(&twopass),
+        &crate::render::no_progress,
+    )
+    .unwrap();
+    let b = render(&s, &bvh, &st, Some(&local), &crate::render::no_progress).unwrap();
     let (ma, mb) = (image_mean(&a.image), image_mean(&b.image));
     assert!((ma - mb).abs() < 0.03 * ma, "twopass {ma} vs all selected {mb}");
     let patch_rays: u64 = b.counters.sources[s.lights.len()..]

@@ -1,0 +1,636 @@
+//! Adaptive image refinement with the shadow image buffer (paper Sect. 5 and 6).
+//!
+//! Samples are taken level by level on a hierarchy of cells, each jittered in its cell:
+//!
+//! - level -1: one sample per 2 x 2 pixel block; every shadow ray is cast;
+//! - level 0: every pixel that has no sample yet gets one, non-adaptively (so small
+//!   objects are not missed); shadow rays only where the SIB neighbours (the level -1
+//!   samples of the four nearest blocks) disagree;
+//! - level L >= 1 (up to `max_level`): in the pixels the refinement criteria select,
+//!   every cell of `2^-L` pixels that has no sample yet gets one, so a pixel holds
+//!   `4^L` samples. These are anti-aliasing samples: they read the SIB of the level 0
+//!   samples of the four nearest pixels but store nothing.
+//!
+//! Refinement criteria (Sect. 6): *object* (samples hit different objects), *shadow*
+//! (a real point light is lit at one sample and shadowed at the other, read from the
+//! SIB) and *difference* (the display values differ by more than `contrast`). Level 1
+//! compares each pixel's sample with those of its eight neighbours; level L > 1
+//! compares the samples inside a pixel refined at level L - 1.
+//!
+//! A level reads only coarser levels, so its samples are computed in parallel, and the
+//! image of a seed does not depend on the number of threads. Pixels are reconstructed
+//! with the filter as a weighted average in which each sample counts in proportion to
+//! its share of its pixel (`1 / samples in the pixel`), so densely refined pixels do
+//! not outweigh their neighbours: with the box filter this is the paper's "weighted
+//! average of the samples within the pixel areas".
+
+use glam::{Vec2, Vec3};
+use indicatif::ProgressBar;
+use rayon::prelude::*;
+
+use super::sib::{self, Entry, Neighbour, SibQuery, NO_OBJECT};
+use super::{hash32, splitmix64, Camera, FilmSample, SampleBuffer, Settings, Tracer};
+use crate::io::{srgb_encode, Image};
+use crate::scene::Rgb;
+use crate::stats::{Counters, LevelStats};
+
+/// "No sample".
+const NONE: u32 = u32::MAX;
+
+/// Samples per parallel work item.
+const CHUNK: usize = 256;
+
+/// One image sample of the adaptive sampler.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    /// Film position in pixels.
+    pub pos: Vec2,
+    /// Radiance found.
+    pub value: Rgb,
+    /// The object (shape) the primary ray hit, or [`NO_OBJECT`].
+    pub object: u32,
+    /// The level it was taken at (-1 ..= max level).
+    pub level: i8,
+    /// Bit s: point or spot light s (of the first 64 sources) is known at this sample.
+    pub point_known: u64,
+    /// Bit s: ... and lit.
+    pub point_lit: u64,
+    /// Shadow rays this sample cast (all its hits).
+    pub rays: u32,
+    /// Shadow rays it did not cast because its SIB neighbours agreed.
+    pub saved: u32,
+}
+
+/// Everything the adaptive sampler took: the samples, the shadow image buffer of the
+/// stored (level -1 and 0) samples, and which sample is each pixel's stored one.
+#[derive(Debug, Clone)]
+pub struct SampleSet {
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// All samples, level by level; the first `width * height` are the stored ones.
+    pub samples: Vec<Sample>,
+    /// Per pixel, its stored sample.
+    pub base: Vec<u32>,
+    /// SIB records of the stored samples: sample i's is
+    /// `entries[first[i]..first[i + 1]]`.
+    first: Vec<u32>,
+    entries: Vec<Entry>,
+    /// Per pixel, offsets into `by_pixel`.
+    pixel_start: Vec<u32>,
+    /// Sample indices grouped by pixel.
+    by_pixel: Vec<u32>,
+}
+
+impl SampleSet {
+    /// The SIB record of stored sample `i` (empty for other samples).
+    pub fn record(&self, i: u32) -> &[Entry] {
+        let i = i as usize;
+        if i + 1 < self.first.len() {
+            &self.entries[self.first[i] as usize..self.first[i + 1] as usize]
+        } else {
+            &[]
+        }
+    }
+
+    /// The samples of pixel `p`.
+    pub fn pixel(&self, p: u32) -> &[u32] {
+        let p = p as usize;
+        &self.by_pixel[self.pixel_start[p] as usize..self.pixel_start[p + 1] as usize]
+    }
+
+    fn pixel_of(&self, pos: Vec2) -> u32 {
+        let x = (pos.x.max(0.0) as u32).min(self.width - 1);
+        let y = (pos.y.max(0.0) as u32).min(self.height - 1);
+        y * self.width + x
+    }
+
+    /// Groups the samples by pixel again (after a level added some).
+    fn index_pixels(&mut self) {
+        let n = (self.width * self.height) as usize;
+        let mut start = vec![0u32; n + 1];
+        for s in &self.samples {
+            start[self.pixel_of(s.pos) as usize + 1] += 1;
+        }
+        for i in 0..n {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut by = vec![0u32; self.samples.len()];
+        for (i, s) in self.samples.iter().enumerate() {
+            let p = self.pixel_of(s.pos) as usize;
+            by[fill[p] as usize] = i as u32;
+            fill[p] += 1;
+        }
+        self.pixel_start = start;
+        self.by_pixel = by;
+    }
+
+    /// The image: each pixel a filtered average of the samples near it, every sample
+    /// weighted by its share of its pixel.
+    pub fn reconstruct(&self, filter: super::Filter) -> Image {
+        let rows: Vec<Vec<FilmSample>> = vec![self
+            .samples
+            .iter()
+            .map(|s| FilmSample {
+                x: s.pos.x,
+                y: s.pos.y,
+                value: s.value,
+            })
+            .collect()];
+        SampleBuffer::from_rows(self.width, self.height, rows).reconstruct(filter)
+    }
+}
+
+/// What the adaptive sampler produces.
+#[derive(Debug, Clone)]
+pub struct AdaptiveOutput {
+    /// The samples and their shadow image buffer.
+    pub set: SampleSet,
+    /// Counts per level, from -1.
+    pub levels: Vec<LevelStats>,
+    /// All counts.
+    pub counters: Counters,
+}
+
+/// A sample to take.
+#[derive(Debug, Clone, Copy)]
+struct Task {
+    pos: Vec2,
+    seed: u32,
+    /// Stored samples whose SIB it reads.
+    neighbours: [u32; 4],
+}
+
+/// Parameters of the adaptive sampler beyond the render settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Refine {
+    /// Highest level (`4^max_level` samples per pixel at most).
+    pub max_level: u32,
+    /// Difference criterion: refine where display values (sRGB, after `exposure`)
+    /// differ by more than this in a channel.
+    pub contrast: f32,
+    /// Exposure in stops for the difference criterion.
+    pub exposure: f32,
+    /// Whether the SIB's neighbours are reused (off: every shadow ray is cast).
+    pub sib: bool,
+}
+
+impl Default for Refine {
+    /// The command line's defaults: level 2 (16 samples per pixel at most), contrast
+    /// 0.05, exposure 0, SIB on.
+    fn default() -> Self {
+        Refine {
+            max_level: 2,
+            contrast: 0.05,
+            exposure: 0.0,
+            sib: true,
+        }
+    }
+}
+
+/// Renders with the adaptive sampler. `progress(label, samples)` makes a progress bar
+/// for each level.
+pub fn render_adaptive(
+    tracer: &Tracer,
+    camera: &Camera,
+    settings: &Settings,
+    refine: &Refine,
+    progress: &dyn Fn(&str, u64) -> ProgressBar,
+) -> AdaptiveOutput {
+    let (w, h) = (settings.width, settings.height);
+    let point = tracer.point_sources();
+    let nsrc = tracer.source_count();
+    let mut set = SampleSet {
+        width: w,
+        height: h,
+        samples: Vec::new(),
+        base: vec![NONE; (w * h) as usize],
+        first: vec![0],
+        entries: Vec::new(),
+        pixel_start: Vec::new(),
+        by_pixel: Vec::new(),
+    };
+    let mut levels = Vec::new();
+    let seed_of = |level: i32, cx: u32, cy: u32| -> u32 {
+        let key = ((level + 1) as u64) << 58 ^ (settings.view as u64) << 52 ^ (cy as u64) << 26 ^ cx as u64;
+        super::fold32(splitmix64(settings.seed ^ splitmix64(key)))
+    };
+    let jitter = |seed: u32| {
+        let h = splitmix64(seed as u64 ^ 0xA076_1D64_78BD_642F);
+        Vec2::new(
+            (h >> 40) as f32 / (1u64 << 24) as f32,
+            ((h >> 16) & 0xFF_FFFF) as f32 / (1u64 << 24) as f32,
+        )
+    };
+
+    // Level -1: one sample per 2 x 2 block, every shadow ray cast.
+    let (bw, bh) = (w.div_ceil(2), h.div_ceil(2));
+    let tasks: Vec<Task> = (0..bw * bh)
+        .map(|b| {
+            let (bx, by) = (b % bw, b / bw);
+            let seed = seed_of(-1, bx, by);
+            let ext = Vec2::new((w - 2 * bx).min(2) as f32, (h - 2 * by).min(2) as f32);
+            Task {
+                pos: in_cell(Vec2::new(2.0 * bx as f32, 2.0 * by as f32), ext, jitter(seed)),
+                seed,
+                neighbours: [NONE; 4],
+            }
+        })
+        .collect();
+    let block_first = set.samples.len() as u32;
+    run_level(
+        tracer,
+        camera,
+        refine,
+        &point,
+        nsrc,
+        &mut set,
+        &mut levels,
+        -1,
+        &tasks,
+        true,
+        progress,
+    );
+    for i in 0..tasks.len() as u32 {
+        let s = block_first + i;
+        let p = set.pixel_of(set.samples[s as usize].pos);
+        set.base[p as usize] = s;
+    }
+
+    // Level 0: every pixel without a sample; SIB neighbours are the samples of the
+    // four blocks nearest to the pixel's centre.
+    let block_sample = |bx: i64, by: i64| -> u32 {
+        if bx < 0 || by < 0 || bx >= bw as i64 || by >= bh as i64 {
+            NONE
+        } else {
+            block_first + (by as u32 * bw + bx as u32)
+        }
+    };
+    let tasks: Vec<Task> = (0..w * h)
+        .filter(|&p| set.base[p as usize] == NONE)
+        .map(|p| {
+            let (x, y) = (p % w, p / w);
+            let seed = seed_of(0, x, y);
+            // Blocks whose centres (2 b + 1) bracket the pixel's centre (x + 0.5).
+            let (bx, by) = ((x as i64 - 1).div_euclid(2), (y as i64 - 1).div_euclid(2));
+            let mut nb = [NONE; 4];
+            let mut k = 0;
+            for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                let s = block_sample(bx + dx, by + dy);
+                if s != NONE {
+                    nb[k] = s;
+                    k += 1;
+                }
+            }
+            Task {
+                pos: in_cell(Vec2::new(x as f32, y as f32), Vec2::ONE, jitter(seed)),
+                seed,
+                neighbours: nb,
+            }
+        })
+        .collect();
+    let level0_first = set.samples.len() as u32;
+    run_level(
+        tracer,
+        camera,
+        refine,
+        &point,
+        nsrc,
+        &mut set,
+        &mut levels,
+        0,
+        &tasks,
+        true,
+        progress,
+    );
+    for i in 0..tasks.len() as u32 {
+        let s = level0_first + i;
+        let p = set.pixel_of(set.samples[s as usize].pos);
+        set.base[p as usize] = s;
+    }
+    set.index_pixels();
+
+    // Levels 1..: refine where the criteria say.
+    let mut marked: Vec<u32> = Vec::new();
+    for level in 1..=refine.max_level as i32 {
+        marked = if level == 1 {
+            (0..w * h)
+                .into_par_iter()
+                .filter(|&p| {
+                    let a = &set.samples[set.base[p as usize] as usize];
+                    let (x, y) = ((p % w) as i64, (p / w) as i64);
+                    (-1..=1i64).any(|dy| {
+                        (-1..=1i64).any(|dx| {
+                            let (nx, ny) = (x + dx, y + dy);
+                            (dx, dy) != (0, 0)
+                                && nx >= 0
+                                && ny >= 0
+                                && nx < w as i64
+                                && ny < h as i64
+                                && differ(
+                                    [
+                                        a,
+                                        &set.samples[set.base[(ny as u32 * w + nx as u32) as usize] as usize],
+                                    ],
+                                    refine,
+                                )
+                        })
+                    })
+                })
+                .collect()
+        } else {
+            marked
+                .into_par_iter()
+                .filter(|&p| {
+                    let s: Vec<&Sample> = set.pixel(p).iter().map(|&i| &set.samples[i as usize]).collect();
+                    differ(s, refine)
+                })
+                .collect()
+        };
+        if marked.is_empty() {
+            break;
+        }
+        let cells = 1u32 << level;
+        let size = 1.0 / cells as f32;
+        let tasks: Vec<Task> = marked
+            .par_iter()
+            .flat_map_iter(|&p| {
+                let (x, y) = (p % w, p / w);
+                let mut taken = vec![false; (cells * cells) as usize];
+                for &i in set.pixel(p) {
+                    let s = set.samples[i as usize].pos;
+                    let cx = (((s.x - x as f32) * cells as f32) as u32).min(cells - 1);
+                    let cy = (((s.y - y as f32) * cells as f32) as u32).min(cells - 1);
+                    taken[(cy * cells + cx) as usize] = true;
+                }
+                let set = &set;
+                (0..cells * cells)
+                    .filter(move |&c| !taken[c as usize])
+                    .map(move |c| {
+                        let (cx, cy) = (x * cells + c % cells, y * cells + c / cells);
+                        let seed = seed_of(level, cx, cy);
+                        let pos = in_cell(
+                            Vec2::new(cx as f32, cy as f32) * size,
+                            Vec2::splat(size),
+                            jitter(seed),
+                        );
+                        Task {
+                            pos,
+                            seed,
+                            neighbours: nearest_stored(set, pos),
+                        }
+                    })
+            })
+            .collect();
+        run_level(
+            tracer,
+            camera,
+            refine,
+            &point,
+            nsrc,
+            &mut set,
+            &mut levels,
+            level,
+            &tasks,
+            false,
+            progress,
+        );
+        set.index_pixels();
+    }
+
+    let mut counters = Counters::with_sources(nsrc);
+    for (_, c) in levels.iter() {
+        counters += c.clone();
+    }
+    AdaptiveOutput {
+        set,
+        levels: levels
+            .into_iter()
+            .map(|(level, c): (i32, Counters)| LevelStats {
+                level,
+                samples: c.primary_rays,
+                diffuse_hits: c.diffuse_hits,
+                shadow_rays: c.shadow_rays,
+                shadow_rays_saved: c.shadow_rays_saved,
+            })
+            .collect(),
+        counters,
+    }
+}
+
+/// Pictures of the method (the paper's Figs. 4 and 5), in display values (0..1).
+impl SampleSet {
+    /// The shadow image of ray-traced source `source`: per
+    /// pixel, from its stored sample, white where every known light point is lit,
+    /// black where all are shadowed, grey in between (the lit fraction), and dark red
+    /// where none is known (not ray traced there, facing away, or nothing hit).
+    pub fn shadow_image(&self, source: u32) -> Image {
+        let mut img = Image::new(self.width, self.height);
+        for (p, px) in img.pixels.iter_mut().enumerate() {
+            let (mut known, mut lit) = (0u32, 0u32);
+            for e in self.record(self.base[p]).iter().filter(|e| e.source == source) {
+                known += e.known.count_ones();
+                lit += (e.known & e.lit).count_ones();
+            }
+            *px = if known == 0 {
+                Vec3::new(0.35, 0.05, 0.05)
+            } else {
+                Vec3::splat(lit as f32 / known as f32)
+            };
+        }
+        img
+    }
+
+    /// Samples per pixel: black for one sample (levels -1 and 0), then blue, green
+    /// and white for 4, 16 and more.
+    pub fn density_image(&self) -> Image {
+        let mut img = Image::new(self.width, self.height);
+        for (p, px) in img.pixels.iter_mut().enumerate() {
+            *px = match self.pixel(p as u32).len() {
+                0 | 1 => Vec3::ZERO,
+                2..=4 => Vec3::new(0.1, 0.2, 0.9),
+                5..=16 => Vec3::new(0.2, 0.9, 0.2),
+                _ => Vec3::ONE,
+            };
+        }
+        img
+    }
+
+    /// Shadow rays cast per pixel (all its samples and their reflections), on a log
+    /// scale from black (none) to white (the most any pixel cast).
+    pub fn rays_image(&self) -> Image {
+        let per: Vec<u64> = (0..self.width * self.height)
+            .map(|p| {
+                self.pixel(p)
+                    .iter()
+                    .map(|&i| self.samples[i as usize].rays as u64)
+                    .sum()
+            })
+            .collect();
+        let max = per.iter().copied().max().unwrap_or(0).max(1) as f32;
+        let mut img = Image::new(self.width, self.height);
+        for (px, &r) in img.pixels.iter_mut().zip(&per) {
+            *px = Vec3::splat((1.0 + r as f32).ln() / (1.0 + max).ln());
+        }
+        img
+    }
+}
+
+/// The point `jitter` (in [0, 1)^2) of the cell at `origin` of size `size`, kept
+/// strictly inside the cell (in f32, `511 + 0.99999994` rounds to 512).
+fn in_cell(origin: Vec2, size: Vec2, jitter: Vec2) -> Vec2 {
+    let hi = origin + size;
+    let inside = |o: f32, h: f32, p: f32| p.clamp(o, h - h.abs().max(1.0) * f32::EPSILON);
+    let p = origin + jitter * size;
+    Vec2::new(inside(origin.x, hi.x, p.x), inside(origin.y, hi.y, p.y))
+}
+
+/// The stored samples of the (up to) four pixels whose centres surround `pos`.
+fn nearest_stored(set: &SampleSet, pos: Vec2) -> [u32; 4] {
+    let (x0, y0) = ((pos.x - 0.5).floor() as i64, (pos.y - 0.5).floor() as i64);
+    let mut nb = [NONE; 4];
+    let mut k = 0;
+    for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+        let (x, y) = (x0 + dx, y0 + dy);
+        if x >= 0 && y >= 0 && x < set.width as i64 && y < set.height as i64 {
+            nb[k] = set.base[(y as u32 * set.width + x as u32) as usize];
+            k += 1;
+        }
+    }
+    nb
+}
+
+/// Whether the refinement criteria fire among `samples`: object, shadow (a point light
+/// lit at one, shadowed at another) or difference.
+fn differ<'s>(samples: impl IntoIterator<Item = &'s Sample>, refine: &Refine) -> bool {
+    let scale = 2f32.powf(refine.exposure);
+    let display = |v: Rgb| {
+        (v * scale)
+            .clamp(Vec3::ZERO, Vec3::ONE)
+            .to_array()
+            .map(srgb_encode)
+    };
+    let (mut object, mut lit, mut dark) = (None, 0u64, 0u64);
+    let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    for s in samples {
+        if *object.get_or_insert(s.object) != s.object {
+            return true;
+        }
+        lit |= s.point_known & s.point_lit;
+        dark |= s.point_known & !s.point_lit;
+        let d = display(s.value);
+        for c in 0..3 {
+            lo[c] = lo[c].min(d[c]);
+            hi[c] = hi[c].max(d[c]);
+        }
+    }
+    lit & dark != 0 || (0..3).any(|c| hi[c] - lo[c] > refine.contrast)
+}
+
+/// The samples of one work item of a level, with their SIB records (record lengths
+/// and entries, if stored) and counts.
+struct Chunk {
+    samples: Vec<Sample>,
+    lens: Vec<u32>,
+    entries: Vec<Entry>,
+    counters: Counters,
+}
+
+/// Takes the samples `tasks` of one level in parallel and appends them to `set` (with
+/// their SIB records if `store`), and the level's counts to `levels`.
+#[allow(clippy::too_many_arguments)]
+fn run_level(
+    tracer: &Tracer,
+    camera: &Camera,
+    refine: &Refine,
+    point: &[bool],
+    nsrc: usize,
+    set: &mut SampleSet,
+    levels: &mut Vec<(i32, Counters)>,
+    level: i32,
+    tasks: &[Task],
+    store: bool,
+    progress: &dyn Fn(&str, u64) -> ProgressBar,
+) {
+    let pb = progress(&format!("level {level:>2}"), tasks.len() as u64);
+    let read: &SampleSet = set;
+    let chunks: Vec<Chunk> = tasks
+        .par_chunks(CHUNK)
+        .map(|chunk| {
+            let mut counters = Counters::with_sources(nsrc);
+            let mut samples = Vec::with_capacity(chunk.len());
+            let mut lens = Vec::with_capacity(if store { chunk.len() } else { 0 });
+            let mut entries = Vec::new();
+            let mut record = Vec::new();
+            for t in chunk {
+                let mut ns = [Neighbour {
+                    object: NO_OBJECT,
+                    record: &[],
+                }; 4];
+                let mut k = 0;
+                for &i in t.neighbours.iter().filter(|&&i| i != NONE) {
+                    ns[k] = Neighbour {
+                        object: read.samples[i as usize].object,
+                        record: read.record(i),
+                    };
+                    k += 1;
+                }
+                let mut q = SibQuery::new(refine.sib, &ns[..k], &mut record);
+                let ray = camera.ray(t.pos.x, t.pos.y);
+                counters.primary_rays += 1;
+                let before = counters.shadow_rays;
+                let value = tracer.radiance_sib(&ray, hash32(t.seed ^ 0x2545_f491), &mut counters, &mut q);
+                let object = q.object;
+                let saved = q.saved;
+                let (point_known, point_lit) = sib::point_bits(q.record, point);
+                samples.push(Sample {
+                    pos: t.pos,
+                    value,
+                    object,
+                    level: level as i8,
+                    point_known,
+                    point_lit,
+                    rays: (counters.shadow_rays - before) as u32,
+                    saved: saved as u32,
+                });
+                if store {
+                    lens.push(record.len() as u32);
+                    entries.extend_from_slice(&record);
+                }
+            }
+            pb.inc(chunk.len() as u64);
+            Chunk {
+                samples,
+                lens,
+                entries,
+                counters,
+            }
+        })
+        .collect();
+    pb.finish_and_clear();
+    let mut total = Counters::with_sources(nsrc);
+    for Chunk {
+        samples,
+        lens,
+        entries,
+        counters,
+    } in chunks
+    {
+        set.samples.extend(samples);
+        if store {
+            let mut at = *set.first.last().expect("first has a start");
+            for l in lens {
+                at += l;
+                set.first.push(at);
+            }
+            set.entries.extend(entries);
+        }
+        total += counters;
+    }
+    levels.push((level, total));
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,247 @@
+use super::*;
+use crate::accel::Bvh;
+use crate::render::{Filter, Method, Sampler};
+use crate::scene::{Light, Scene};
+use crate::testutil::{looking, quad, scene};
+
+/// A floor `[-20, 20]^2` at z = 0 facing up, a point light 4 above the origin, and
+/// optionally a blocker at z = 2 over `x < -0.5` whose shadow edge on the floor is
+/// the line x = -1. The camera looks straight down from z = 1.5 (below the
+/// blocker), seeing x and y in [-1.5, 1.5].
+fn floor_scene(blocker: bool, w: u32, h: u32) -> Scene {
+    let floor = quad([
+        Vec3::new(-20.0, -20.0, 0.0),
+        Vec3::new(20.0, -20.0, 0.0),
+        Vec3::new(20.0, 20.0, 0.0),
+        Vec3::new(-20.0, 20.0, 0.0),
+    ]);
+    let mut shapes = vec![(floor, Vec3::splat(0.5))];
+    if blocker {
+        shapes.push((
+            quad([
+                Vec3::new(-20.0, -20.0, 2.0),
+                Vec3::new(-20.0, 20.0, 2.0),
+                Vec3::new(-0.5, 20.0, 2.0),
+                Vec3::new(-0.5, -20.0, 2.0),
+            ]),
+            Vec3::splat(0.5),
+        ));
+    }
+    let light = Light::Point {
+        position: Vec3::new(0.0, 0.0, 4.0),
+        intensity: Vec3::splat(20.0),
+    };
+    let mut s = scene(shapes, vec![light], &[]);
+    s.sensors = vec![looking(Vec3::new(0.0, 0.0, 1.5), Vec3::ZERO, 90.0, w, h)];
+    s
+}
+
+fn settings(w: u32, h: u32, sib: bool) -> Settings {
+    Settings {
+        method: Method::Direct,
+        view: 0,
+        width: w,
+        height: h,
+        spp: 1,
+        seed: 7,
+        area_samples: 16,
+        max_depth: 2,
+        filter: Filter::Box,
+        sampler: Sampler::Adaptive,
+        refine: Refine {
+            max_level: 2,
+            contrast: 0.05,
+            exposure: 0.0,
+            sib,
+        },
+    }
+}
+
+fn no_bars(_: &str, _: u64) -> ProgressBar {
+    ProgressBar::hidden()
+}
+
+fn run(scene: &Scene, st: &Settings) -> AdaptiveOutput {
+    let bvh = Bvh::build(scene);
+    let tracer = Tracer::new(scene, &bvh, st);
+    let camera = Camera::new(&scene.sensors[0], st.width, st.height);
+    render_adaptive(&tracer, &camera, st, &st.refine, &no_bars)
+}
+
+/// Where a sample's primary ray meets the floor (z = 0).
+fn floor_x(scene: &Scene, st: &Settings, s: &Sample) -> f32 {
+    let ray = Camera::new(&scene.sensors[0], st.width, st.height).ray(s.pos.x, s.pos.y);
+    let t = -ray.origin.z / ray.dir.z;
+    ray.at(t).x
+}
+
+#[test]
+fn levels_follow_the_cell_hierarchy() {
+    let (w, h) = (9, 7);
+    let sc = floor_scene(true, w, h);
+    let st = settings(w, h, true);
+    let out = run(&sc, &st);
+    let set = &out.set;
+    // Level -1: one sample per 2 x 2 block (5 x 4 blocks), level 0 the other pixels.
+    assert_eq!(out.levels[0].level, -1);
+    assert_eq!(out.levels[0].samples, 20);
+    assert_eq!(out.levels[1].samples, 63 - 20);
+    // Every pixel holds 1, 4 or 16 samples, one per cell of its level, and its stored
+    // sample is one of them.
+    let mut refined = 0;
+    for p in 0..w * h {
+        let samples = set.pixel(p);
+        assert!(samples.contains(&set.base[p as usize]));
+        let n = samples.len();
+        assert!([1, 4, 16].contains(&n), "pixel {p}: {n} samples");
+        let cells = (n as f32).sqrt() as u32;
+        let mut seen = vec![false; n];
+        let (x, y) = ((p % w) as f32, (p / w) as f32);
+        for &i in samples {
+            let s = set.samples[i as usize].pos;
+            let (cx, cy) = (
+                ((s.x - x) * cells as f32) as u32,
+                ((s.y - y) * cells as f32) as u32,
+            );
+            let c = (cy * cells + cx) as usize;
+            assert!(!seen[c], "pixel {p}: two samples in cell {c}");
+            seen[c] = true;
+        }
+        refined += (n > 1) as u32;
+    }
+    assert!(refined > 0, "the shadow edge refines some pixels");
+    // The per-level counts add up to the totals.
+    let sum: u64 = out.levels.iter().map(|l| l.samples).sum();
+    assert_eq!(sum, out.counters.primary_rays);
+    assert_eq!(sum as usize, set.samples.len());
+}
+
+#[test]
+fn without_occluders_shadow_rays_are_cast_only_at_level_minus_one() {
+    let (w, h) = (24, 24);
+    let sc = floor_scene(false, w, h);
+    let out = run(&sc, &settings(w, h, true));
+    let l = &out.levels;
+    assert_eq!(l[0].shadow_rays, l[0].samples, "level -1: one ray per sample");
+    assert_eq!(l[0].shadow_rays_saved, 0);
+    for lv in &l[1..] {
+        assert_eq!(lv.shadow_rays, 0, "level {}", lv.level);
+        assert_eq!(lv.shadow_rays_saved, lv.samples, "level {}", lv.level);
+    }
+}
+
+#[test]
+fn shadow_rays_are_cast_only_along_the_shadow_edge() {
+    let (w, h) = (48, 48);
+    let sc = floor_scene(true, w, h);
+    let st = settings(w, h, true);
+    let out = run(&sc, &st);
+    // A pixel is 3 / 48 units of floor; the SIB neighbours of a sample are at most
+    // about two pixels away, so rays are cast within three pixels of the edge.
+    let reach = 3.0 * 3.0 / w as f32;
+    let mut near_edge = 0;
+    for s in out.set.samples.iter().filter(|s| s.level >= 0) {
+        let x = floor_x(&sc, &st, s);
+        if s.rays > 0 {
+            assert!((x + 1.0).abs() < reach, "ray cast at x = {x}, level {}", s.level);
+            near_edge += 1;
+        }
+        // Far from the edge the value is exact: black in the shadow, lit outside.
+        if (x + 1.0).abs() > reach {
+            assert_eq!(s.value == Vec3::ZERO, x < -1.0, "x = {x}");
+        }
+    }
+    assert!(near_edge > 0);
+    // Level 0 saves most of its rays.
+    let l0 = &out.levels[1];
+    assert!(l0.shadow_rays_saved > 4 * l0.shadow_rays, "{l0:?}");
+}
+
+#[test]
+fn sib_on_and_off_agree_wherever_no_value_was_reused() {
+    let (w, h) = (40, 40);
+    let sc = floor_scene(true, w, h);
+    let on = run(&sc, &settings(w, h, true));
+    let off = run(&sc, &settings(w, h, false));
+    assert_eq!(off.counters.shadow_rays_saved, 0);
+    assert!(on.counters.shadow_rays < off.counters.shadow_rays);
+    // Positions are fixed per cell: match the samples by position.
+    let key = |s: &Sample| (s.pos.x.to_bits(), s.pos.y.to_bits());
+    let off_by_pos: std::collections::HashMap<_, _> = off.set.samples.iter().map(|s| (key(s), s)).collect();
+    let mut compared = 0;
+    for s in on.set.samples.iter().filter(|s| s.saved == 0) {
+        if let Some(o) = off_by_pos.get(&key(s)) {
+            assert_eq!(s.value, o.value, "at {:?}", s.pos);
+            compared += 1;
+        }
+    }
+    assert!(compared > 100, "{compared}");
+    // Where values were reused they are right here too: same pixels, same image.
+    let (a, b) = (on.set.reconstruct(Filter::Box), off.set.reconstruct(Filter::Box));
+    let differing = a.pixels.iter().zip(&b.pixels).filter(|(x, y)| x != y).count();
+    assert!(differing <= w as usize / 4, "{differing} pixels differ");
+}
+
+#[test]
+fn the_image_of_a_seed_does_not_depend_on_the_threads() {
+    let (w, h) = (32, 20);
+    let sc = floor_scene(true, w, h);
+    let st = settings(w, h, true);
+    let pool = |n| rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap();
+    let one = pool(1).install(|| run(&sc, &st));
+    let two = pool(2).install(|| run(&sc, &st));
+    assert_eq!(one.set.samples, two.set.samples);
+    assert_eq!(one.counters, two.counters);
+    assert_eq!(one.levels, two.levels);
+}
+
+#[test]
+fn the_difference_criterion_refines_only_where_values_differ() {
+    let a = Sample {
+        pos: Vec2::ZERO,
+        value: Vec3::splat(0.5),
+        object: 1,
+        level: 0,
+        point_known: 1,
+        point_lit: 1,
+        rays: 0,
+        saved: 0,
+    };
+    let r = Refine {
+        max_level: 2,
+        contrast: 0.05,
+        exposure: 0.0,
+        sib: true,
+    };
+    let b = Sample {
+        value: Vec3::new(0.5, 0.5, 0.52),
+        ..a
+    };
+    assert!(!differ([&a, &b], &r), "a small difference");
+    let c = Sample {
+        value: Vec3::new(0.5, 0.5, 0.7),
+        ..a
+    };
+    assert!(differ([&a, &c], &r), "difference");
+    assert!(differ([&a, &Sample { object: 2, ..a }], &r), "object");
+    assert!(
+        differ([&a, &Sample { point_lit: 0, ..a }], &r),
+        "shadow of a point light"
+    );
+    assert!(
+        !differ(
+            [
+                &a,
+                &Sample {
+                    point_known: 0,
+                    point_lit: 0,
+                    ..a
+                }
+            ],
+            &r
+        ),
+        "unknown is no shadow edge"
+    );
+    // Exposure: -3 stops makes the same difference invisible.
+    assert!(!differ([&a, &c], &Refine { exposure: -8.0, ..r }));
+}

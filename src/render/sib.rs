@@ -1,0 +1,270 @@
+//! The shadow image buffer (SIB; paper Sect. 5, after Woodward 1990).
+//!
+//! For each image sample of the coarse levels, and each *light point* (a point or spot
+//! light, or one sub-source of an area light or selected radiant patch), the SIB holds a
+//! tri-state: unknown, lit or shadowed. A new sample decides each light point by the
+//! paper's rule:
+//!
+//! ```text
+//! for each light point L:
+//!     if all already computed neighbouring SIB(L) are equal: take their value
+//!     else: cast a shadow ray to L
+//!     if not in anti-aliasing: SIB(L, sample) = the result
+//! ```
+//!
+//! Here a record holds entries only for the sources ray traced on the sample's patch
+//! (the others are unknown), in words of 64 light points, so the buffer's size follows
+//! what the selection casts, not the number of sources in the scene. A light point
+//! behind the surface gets neither a ray nor an entry. Neighbours count only if every
+//! one of them hit the same object as the new sample: across an object boundary
+//! shadows are not coherent, so every ray is cast there (the paper: "object boundaries
+//! where we do not use the SIB").
+
+/// "No object": a sample whose primary ray hit nothing.
+pub const NO_OBJECT: u32 = u32::MAX;
+
+/// The entries of one source in a sample's record, for light points
+/// `64 * word .. 64 * word + 64` of the source: which are known, and which of the known
+/// ones are lit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Entry {
+    /// Index of the ray-traced source.
+    pub source: u32,
+    /// Which 64 light points of the source.
+    pub word: u32,
+    /// Bit k: light point `64 * word + k` is known.
+    pub known: u64,
+    /// Bit k: light point `64 * word + k` is lit (meaningful where known).
+    pub lit: u64,
+}
+
+/// Bits `[a, b)` of the 64-bit word `w` (light points numbered within a source).
+fn word_mask(w: u32, a: u32, b: u32) -> u64 {
+    if b <= 64 * w || a >= 64 * w + 64 {
+        return 0;
+    }
+    let lo = a.max(64 * w) - 64 * w;
+    let hi = b.min(64 * w + 64) - 64 * w;
+    if hi <= lo {
+        0
+    } else if hi - lo == 64 {
+        u64::MAX
+    } else {
+        ((1u64 << (hi - lo)) - 1) << lo
+    }
+}
+
+/// The words `[a, b)` spans.
+fn words(a: u32, b: u32) -> std::ops::RangeInclusive<u32> {
+    a / 64..=(b.max(a + 1) - 1) / 64
+}
+
+/// The value of light points `[a, b)` of `source` in a record, if all are known and
+/// equal.
+pub fn value(record: &[Entry], source: u32, a: u32, b: u32) -> Option<bool> {
+    let mut out = None;
+    for w in words(a, b) {
+        let m = word_mask(w, a, b);
+        let e = record.iter().find(|e| e.source == source && e.word == w)?;
+        if e.known & m != m {
+            return None;
+        }
+        let v = match e.lit & m {
+            0 => false,
+            x if x == m => true,
+            _ => return None,
+        };
+        if out.is_some_and(|o| o != v) {
+            return None;
+        }
+        out = Some(v);
+    }
+    out
+}
+
+/// Sets light points `[a, b)` of `source` to `lit` in a record being built.
+pub fn set(record: &mut Vec<Entry>, source: u32, a: u32, b: u32, lit: bool) {
+    for w in words(a, b) {
+        let m = word_mask(w, a, b);
+        let e = match record.iter().position(|e| e.source == source && e.word == w) {
+            Some(i) => &mut record[i],
+            None => {
+                record.push(Entry {
+                    source,
+                    word: w,
+                    known: 0,
+                    lit: 0,
+                });
+                record.last_mut().expect("just pushed")
+            }
+        };
+        e.known |= m;
+        e.lit = if lit { e.lit | m } else { e.lit & !m };
+    }
+}
+
+/// The paper's rule for light points `[a, b)` of `source`: the common value of the
+/// neighbours' records, if every neighbour knows them all and all agree; `None`
+/// (cast a ray) otherwise, and when there is no neighbour.
+pub fn agree(neighbours: &[Neighbour], source: u32, a: u32, b: u32) -> Option<bool> {
+    let (first, rest) = neighbours.split_first()?;
+    let v = value(first.record, source, a, b)?;
+    rest.iter()
+        .all(|n| value(n.record, source, a, b) == Some(v))
+        .then_some(v)
+}
+
+/// An already computed neighbouring sample, as the SIB sees it.
+#[derive(Debug, Clone, Copy)]
+pub struct Neighbour<'a> {
+    /// The object (shape) its primary ray hit, or [`NO_OBJECT`].
+    pub object: u32,
+    /// Its record.
+    pub record: &'a [Entry],
+}
+
+/// The SIB as one primary ray's first diffuse hit uses it.
+#[derive(Debug)]
+pub struct SibQuery<'a> {
+    /// Whether neighbours' values are reused (`--sib on`). Off, every shadow ray is
+    /// cast, but the record is still filled (for pictures and the shadow criterion).
+    pub reuse: bool,
+    /// The already computed neighbouring samples (coarser levels).
+    pub neighbours: &'a [Neighbour<'a>],
+    /// This sample's record, filled by the shading (the caller clears it).
+    pub record: &'a mut Vec<Entry>,
+    /// Set by the shading: the object the primary ray hit ([`NO_OBJECT`] if none).
+    pub object: u32,
+    /// Set by the shading: shadow rays not cast because the neighbours agreed.
+    pub saved: u64,
+}
+
+impl<'a> SibQuery<'a> {
+    /// A query with the given neighbours and output record.
+    pub fn new(reuse: bool, neighbours: &'a [Neighbour<'a>], record: &'a mut Vec<Entry>) -> Self {
+        record.clear();
+        SibQuery {
+            reuse,
+            neighbours,
+            record,
+            object: NO_OBJECT,
+            saved: 0,
+        }
+    }
+
+    /// Whether the neighbours may be used at a hit on `object`: SIB on, at least one
+    /// neighbour, and every neighbour on the same object.
+    pub fn usable(&self, object: u32) -> bool {
+        self.reuse && !self.neighbours.is_empty() && self.neighbours.iter().all(|n| n.object == object)
+    }
+}
+
+/// Lit and known bits of the first 64 sources that are point or spot lights (`point[s]`
+/// tells which are), for the shadow criterion of the adaptive sampler.
+pub fn point_bits(record: &[Entry], point: &[bool]) -> (u64, u64) {
+    let (mut known, mut lit) = (0u64, 0u64);
+    for e in record {
+        let s = e.source as usize;
+        if s < 64 && e.word == 0 && point.get(s).copied().unwrap_or(false) && e.known & 1 != 0 {
+            known |= 1 << s;
+            if e.lit & 1 != 0 {
+                lit |= 1 << s;
+            }
+        }
+    }
+    (known, lit)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rec(entries: &[(u32, u32, bool)]) -> Vec<Entry> {
+        let mut r = Vec::new();
+        for &(s, p, lit) in entries {
+            set(&mut r, s, p, p + 1, lit);
+        }
+        r
+    }
+
+    #[test]
+    fn masks_cover_exactly_the_range() {
+        assert_eq!(word_mask(0, 0, 64), u64::MAX);
+        assert_eq!(word_mask(0, 3, 5), 0b11000);
+        assert_eq!(word_mask(1, 60, 70), 0b11_1111);
+        assert_eq!(word_mask(0, 60, 70), 0xF << 60);
+        assert_eq!(word_mask(2, 60, 70), 0);
+        assert_eq!(words(60, 70), 0..=1);
+        assert_eq!(words(0, 64), 0..=0);
+    }
+
+    #[test]
+    fn set_and_value_round_trip_across_words() {
+        let mut r = Vec::new();
+        set(&mut r, 3, 0, 100, true);
+        assert_eq!(r.len(), 2);
+        assert_eq!(value(&r, 3, 0, 100), Some(true));
+        assert_eq!(value(&r, 3, 99, 100), Some(true));
+        assert_eq!(value(&r, 3, 100, 101), None, "never set: unknown");
+        assert_eq!(value(&r, 2, 0, 1), None, "other source: unknown");
+        set(&mut r, 3, 10, 12, false);
+        assert_eq!(value(&r, 3, 10, 12), Some(false));
+        assert_eq!(value(&r, 3, 8, 12), None, "mixed: no single value");
+        assert_eq!(value(&r, 3, 0, 10), Some(true));
+    }
+
+    #[test]
+    fn neighbours_must_all_know_and_agree() {
+        let lit = rec(&[(0, 0, true)]);
+        let lit2 = rec(&[(0, 0, true), (1, 5, false)]);
+        let dark = rec(&[(0, 0, false)]);
+        let none = rec(&[]);
+        let n = |r: &'static [Entry]| Neighbour { object: 1, record: r };
+        let (lit, lit2, dark, none) = (lit.leak(), lit2.leak(), dark.leak(), none.leak());
+        assert_eq!(agree(&[n(lit), n(lit2)], 0, 0, 1), Some(true));
+        assert_eq!(agree(&[n(lit), n(dark)], 0, 0, 1), None);
+        assert_eq!(agree(&[n(lit), n(none)], 0, 0, 1), None, "unknown disagrees");
+        assert_eq!(agree(&[n(dark)], 0, 0, 1), Some(false));
+        assert_eq!(agree(&[], 0, 0, 1), None, "no neighbour: cast");
+        assert_eq!(agree(&[n(lit2)], 1, 5, 6), Some(false));
+    }
+
+    #[test]
+    fn the_sib_is_usable_only_on_the_neighbours_object() {
+        let r: Vec<Entry> = Vec::new();
+        let ns = [
+            Neighbour {
+                object: 2,
+                record: &r,
+            },
+            Neighbour {
+                object: 2,
+                record: &r,
+            },
+        ];
+        let mut out = Vec::new();
+        let q = SibQuery::new(true, &ns, &mut out);
+        assert!(q.usable(2));
+        assert!(!q.usable(3));
+        let mixed = [
+            ns[0],
+            Neighbour {
+                object: 5,
+                record: &r,
+            },
+        ];
+        let mut out = Vec::new();
+        assert!(!SibQuery::new(true, &mixed, &mut out).usable(2));
+        let mut out = Vec::new();
+        assert!(!SibQuery::new(false, &ns, &mut out).usable(2), "sib off");
+        let mut out = Vec::new();
+        assert!(!SibQuery::new(true, &[], &mut out).usable(2), "no neighbours");
+    }
+
+    #[test]
+    fn point_bits_pick_the_point_lights_first_light_point() {
+        let r = rec(&[(0, 0, true), (1, 0, false), (2, 7, true), (3, 0, true)]);
+        let point = [true, true, false, false];
+        assert_eq!(point_bits(&r, &point), (0b11, 0b01));
+    }
+}
