@@ -7,12 +7,11 @@
 //! collapsed into a compressed 8-wide BVH, CWBVH); its nodes are then decoded to f32
 //! child boxes and traversed here (CWBVH order, Ylitie et al. 2017), which takes about
 //! 20% fewer instructions per ray than obvhs's own traversal of the quantised nodes
-//! (see the README's Performance section). Triangles are tested with obvhs's
-//! `RtTriangle` (Moeller-Trumbore), stored in leaf order.
+//! (see the README's Performance section). Triangles are stored in leaf order, four
+//! to a block, and tested four at a time (Moeller-Trumbore).
 
 use glam::{Vec2, Vec3, Vec3A, Vec4};
 use obvhs::cwbvh::{builder::build_cwbvh, node::CwBvhNode};
-use obvhs::ray::Ray as BvhRay;
 use obvhs::rt_triangle::RtTriangle;
 use obvhs::BvhBuildParams;
 
@@ -74,6 +73,66 @@ pub trait Accel: Send + Sync {
 struct TriRef {
     shape: u32,
     tri: u32,
+}
+
+/// Four consecutive triangles (in leaf order) side by side, x/y/z in separate
+/// vectors, so that one 4-wide Moeller-Trumbore test covers a whole leaf (CWBVH
+/// leaves hold at most three triangles) instead of one test per triangle. The layout
+/// of obvhs's `RtTriangle`: `e1 = v0 - v1`, `e2 = v2 - v0`, `ng = e1 x e2`. Lanes past
+/// the last triangle are zero (`ng = 0`: never hit).
+#[derive(Debug, Clone, Copy, Default)]
+#[repr(C, align(64))]
+struct Tri4 {
+    v0: [Vec4; 3],
+    e1: [Vec4; 3],
+    e2: [Vec4; 3],
+    ng: [Vec4; 3],
+}
+
+impl Tri4 {
+    fn pack(tris: &[RtTriangle]) -> Vec<Tri4> {
+        tris.chunks(4)
+            .map(|c| {
+                let mut b = Tri4::default();
+                for (k, t) in c.iter().enumerate() {
+                    for a in 0..3 {
+                        b.v0[a][k] = t.v0[a];
+                        b.e1[a][k] = t.e1[a];
+                        b.e2[a][k] = t.e2[a];
+                        b.ng[a][k] = t.ng[a];
+                    }
+                }
+                b
+            })
+            .collect()
+    }
+
+    /// Hits of `r` on the lanes in `lanes` (bit k: lane k) within `[r.tmin, tmax]`:
+    /// the bit mask of lanes hit, and per lane t and the barycentrics (b1, b2).
+    #[inline(always)]
+    fn intersect(&self, r: &PreparedRay, lanes: u32, tmax: f32) -> (u32, Vec4, Vec4, Vec4) {
+        let [ox, oy, oz] = r.org;
+        let [dx, dy, dz] = r.dir;
+        let cx = self.v0[0] - ox;
+        let cy = self.v0[1] - oy;
+        let cz = self.v0[2] - oz;
+        // r = d x c
+        let rx = dy * cz - dz * cy;
+        let ry = dz * cx - dx * cz;
+        let rz = dx * cy - dy * cx;
+        let [nx, ny, nz] = self.ng;
+        let det = nx * dx + ny * dy + nz * dz;
+        let inv_det = Vec4::ONE / det;
+        let u = (rx * self.e2[0] + ry * self.e2[1] + rz * self.e2[2]) * inv_det;
+        let v = (rx * self.e1[0] + ry * self.e1[1] + rz * self.e1[2]) * inv_det;
+        let w = Vec4::ONE - u - v;
+        let t = (nx * cx + ny * cy + nz * cz) * inv_det;
+        let zero = Vec4::ZERO;
+        let inside = u.cmpge(zero) & v.cmpge(zero) & w.cmpge(zero) & det.cmpne(zero);
+        // (An overflow to t = inf is no hit, even on an unbounded ray.)
+        let within = t.cmpge(Vec4::splat(r.tmin)) & t.cmple(Vec4::splat(tmax)) & t.cmplt(Vec4::INFINITY);
+        ((inside & within).bitmask() & lanes, t, u, v)
+    }
 }
 
 /// A node of the wide BVH: obvhs's CWBVH node with its eight child boxes decoded
@@ -177,8 +236,12 @@ impl WideNode {
 
 /// A ray with what every node test needs precomputed.
 struct PreparedRay {
-    /// obvhs's ray (for the triangle tests).
-    ray: BvhRay,
+    /// The ray's segment end.
+    tmax: f32,
+    /// Splatted origin per axis.
+    org: [Vec4; 3],
+    /// Splatted direction per axis.
+    dir: [Vec4; 3],
     /// Splatted inverse direction per axis.
     inv: [Vec4; 3],
     /// Splatted origin x inverse direction per axis.
@@ -206,13 +269,13 @@ impl PreparedRay {
         let oct = (((neg & 1) << 2) | (neg & 2) | (neg >> 2 & 1)) ^ 7;
         let oi = origin * inv;
         PreparedRay {
-            ray: BvhRay {
-                origin,
-                direction: dir,
-                inv_direction: inv,
-                tmin: ray.tmin,
-                tmax: ray.tmax,
-            },
+            tmax: ray.tmax,
+            org: [
+                Vec4::splat(origin.x),
+                Vec4::splat(origin.y),
+                Vec4::splat(origin.z),
+            ],
+            dir: [Vec4::splat(dir.x), Vec4::splat(dir.y), Vec4::splat(dir.z)],
             inv: [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
             org_inv: [Vec4::splat(oi.x), Vec4::splat(oi.y), Vec4::splat(oi.z)],
             near,
@@ -277,9 +340,9 @@ pub struct Bvh {
     nodes: Vec<WideNode>,
     /// Levels of the tree (the root alone is 1).
     depth: usize,
-    /// Triangles in the order of the BVH's leaves.
-    tris: Vec<RtTriangle>,
-    /// For each entry of `tris`, the scene triangle it is.
+    /// Triangles in the order of the BVH's leaves, four to a block.
+    blocks: Vec<Tri4>,
+    /// For each triangle in leaf order, the scene triangle it is.
     refs: Vec<TriRef>,
     /// Number of degenerate (zero-area or non-finite) triangles of input meshes left
     /// out (those of collapsed Bezier patch edges are left out too, but not counted).
@@ -320,7 +383,7 @@ impl Bvh {
             return Bvh {
                 nodes: Vec::new(),
                 depth: 0,
-                tris,
+                blocks: Vec::new(),
                 refs,
                 skipped,
             };
@@ -341,7 +404,7 @@ impl Bvh {
         Bvh {
             depth: depth(&nodes),
             nodes,
-            tris,
+            blocks: Tri4::pack(&tris),
             refs,
             skipped,
         }
@@ -349,13 +412,14 @@ impl Bvh {
 
     /// Number of triangles in the BVH.
     pub fn triangle_count(&self) -> usize {
-        self.tris.len()
+        self.refs.len()
     }
 
-    /// Walks the tree for `r`. `leaf(r, i, tmax)` tests triangle `i` and returns the
-    /// new `tmax` (smaller on a closer hit) or `None` to stop at once.
+    /// Walks the tree for `r`. `leaf(b, lanes, tmax)` tests the triangles `lanes`
+    /// (bit k: triangle 4b + k) of block `b` and returns the new `tmax` (smaller on a
+    /// closer hit) or `None` to stop at once.
     #[inline(always)]
-    fn traverse(&self, r: &PreparedRay, leaf: impl FnMut(&BvhRay, usize, f32) -> Option<f32>) {
+    fn traverse(&self, r: &PreparedRay, leaf: impl FnMut(usize, u32, f32) -> Option<f32>) {
         // Small stacks are cheap to set up; few trees are deeper than 17 levels.
         if self.depth <= 17 {
             self.traverse_with(r, ArrayStack::<16>::new(), leaf)
@@ -371,18 +435,27 @@ impl Bvh {
         &self,
         r: &PreparedRay,
         mut stack: impl GroupStack,
-        mut leaf: impl FnMut(&BvhRay, usize, f32) -> Option<f32>,
+        mut leaf: impl FnMut(usize, u32, f32) -> Option<f32>,
     ) {
-        let mut tmax = r.ray.tmax;
+        let mut tmax = r.tmax;
         // The root is reached through a group whose only hit bit is slot 7 at base 0.
         let mut group: (u32, u32) = (0, 0x8000_0000);
         let mut prims: (u32, u32) = (0, 0);
         loop {
             while prims.1 != 0 {
+                // The highest primitive left, with those of its block of four still
+                // to test (prims.1's bit k is primitive prims.0 + k).
                 let k = 31 - prims.1.leading_zeros();
-                prims.1 &= !(1 << k);
-                let i = (prims.0 + k) as usize;
-                match leaf(&r.ray, i, tmax) {
+                let first = (prims.0 + k) & !3;
+                let (lanes, done) = if first >= prims.0 {
+                    let sh = first - prims.0;
+                    ((prims.1 >> sh) & 0xf, 0xf << sh)
+                } else {
+                    let sh = prims.0 - first;
+                    ((prims.1 << sh) & 0xf, 0xf >> sh)
+                };
+                prims.1 &= !done;
+                match leaf(first as usize / 4, lanes, tmax) {
                     Some(t) => tmax = t,
                     None => return,
                 }
@@ -433,18 +506,31 @@ impl Accel for Bvh {
             return None;
         }
         let r = PreparedRay::new(ray);
-        let mut best = None;
-        self.traverse(&r, |br, i, tmax| {
-            let t = self.tris[i].intersect(br);
-            if t < tmax {
-                best = Some((i, t));
-                Some(t)
+        let mut best: Option<(usize, f32, Vec2)> = None;
+        self.traverse(&r, |b, lanes, tmax| {
+            let (hit, t, u, v) = self.blocks[b].intersect(&r, lanes, tmax);
+            if hit == 0 {
+                return Some(tmax);
+            }
+            // The nearest lane hit (the first of equals).
+            let t = t.to_array();
+            let mut k = hit.trailing_zeros() as usize;
+            let mut rest = hit & (hit - 1);
+            while rest != 0 {
+                let j = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                if t[j] < t[k] {
+                    k = j;
+                }
+            }
+            if t[k] < tmax {
+                best = Some((4 * b + k, t[k], Vec2::new(u[k], v[k])));
+                Some(t[k])
             } else {
                 Some(tmax)
             }
         });
-        let (i, t) = best?;
-        let bary = self.tris[i].compute_barycentric(&r.ray);
+        let (i, t, bary) = best?;
         let TriRef { shape, tri } = self.refs[i];
         Some(Hit { t, shape, tri, bary })
     }
@@ -455,8 +541,8 @@ impl Accel for Bvh {
         }
         let r = PreparedRay::new(ray);
         let mut hit = false;
-        self.traverse(&r, |br, i, tmax| {
-            if self.tris[i].intersect(br).is_finite() {
+        self.traverse(&r, |b, lanes, tmax| {
+            if self.blocks[b].intersect(&r, lanes, tmax).0 != 0 {
                 hit = true;
                 None
             } else {
@@ -470,6 +556,7 @@ impl Accel for Bvh {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use obvhs::ray::Ray as BvhRay;
 
     fn bvh_of(tris: &[[Vec3; 3]]) -> Bvh {
         let rt = tris
@@ -562,17 +649,42 @@ mod tests {
     }
 
     /// The closest hit and any hit in the ray's segment by testing every triangle
-    /// with the same triangle test.
+    /// with the same triangle test, one triangle at a time.
     fn brute(tris: &[[Vec3; 3]], ray: &Ray) -> (Option<(usize, f32)>, bool) {
-        let r = BvhRay::new(ray.origin.into(), ray.dir.into(), ray.tmin, ray.tmax);
+        let r = PreparedRay::new(ray);
         let mut best: Option<(usize, f32)> = None;
         for (i, [a, b, c]) in tris.iter().enumerate() {
-            let t = RtTriangle::new((*a).into(), (*b).into(), (*c).into()).intersect(&r);
-            if t.is_finite() && best.is_none_or(|(_, bt)| t < bt) {
-                best = Some((i, t));
+            let block = Tri4::pack(&[RtTriangle::new((*a).into(), (*b).into(), (*c).into())]);
+            let (hit, t, _, _) = block[0].intersect(&r, 0b1, ray.tmax);
+            if hit != 0 && best.is_none_or(|(_, bt)| t.x < bt) {
+                best = Some((i, t.x));
             }
         }
         (best, best.is_some())
+    }
+
+    #[test]
+    fn a_block_tests_only_the_lanes_asked_for_and_padding_lanes_never_hit() {
+        let tri = |z: f32| {
+            RtTriangle::new(
+                Vec3A::new(0.0, 0.0, z),
+                Vec3A::new(1.0, 0.0, z),
+                Vec3A::new(0.0, 1.0, z),
+            )
+        };
+        let blocks = Tri4::pack(&[tri(1.0), tri(2.0), tri(3.0), tri(4.0), tri(5.0)]);
+        assert_eq!(blocks.len(), 2);
+        let r = PreparedRay::new(&Ray::new(Vec3::new(0.25, 0.25, 0.0), Vec3::Z));
+        let (hit, t, u, v) = blocks[0].intersect(&r, 0b1111, f32::INFINITY);
+        assert_eq!(hit, 0b1111);
+        assert_eq!(t.to_array(), [1.0, 2.0, 3.0, 4.0]);
+        assert_eq!((u.x, v.x), (0.25, 0.25));
+        assert_eq!(blocks[0].intersect(&r, 0b0110, f32::INFINITY).0, 0b0110);
+        assert_eq!(blocks[0].intersect(&r, 0b1111, 2.5).0, 0b0011);
+        // Block 1 holds one triangle and three zero lanes.
+        assert_eq!(blocks[1].intersect(&r, 0b1111, f32::INFINITY).0, 0b0001);
+        let miss = PreparedRay::new(&Ray::new(Vec3::new(0.75, 0.75, 0.0), Vec3::Z));
+        assert_eq!(blocks[0].intersect(&miss, 0b1111, f32::INFINITY).0, 0);
     }
 
     /// Checks `bvh` against [`brute`] on `rays`; returns the number of hits.
