@@ -532,14 +532,30 @@ impl RadiosityMesh {
     /// elements split along a diagonal), wound so that their normal is the patch's
     /// (for a back twin: the reversed one).
     pub fn element_triangles(&self, patch: u32) -> Vec<[u32; 3]> {
+        self.triangles(patch, false)
+    }
+
+    /// The patch as few triangles of its vertices: the corners of each planar grid
+    /// (one triangle or two), and a 2 x 2 grid of quads over a Bezier piece, which is
+    /// curved. Wound like [`Self::element_triangles`]. For what depends only on the
+    /// patch's shape, such as the solid angle it is seen under.
+    pub fn outline_triangles(&self, patch: u32) -> Vec<[u32; 3]> {
+        self.triangles(patch, true)
+    }
+
+    fn triangles(&self, patch: u32, outline: bool) -> Vec<[u32; 3]> {
         let p = &self.patches[patch as usize];
-        let mut out = Vec::with_capacity(2 * p.element_count as usize);
+        let mut out = Vec::with_capacity(if outline { 8 } else { 2 * p.element_count as usize });
         for g in &p.grids {
             let base = g.first_vertex;
             match g.domain {
                 Domain::Tri(_) => {
                     let k = g.n;
                     let idx = |i: u32, j: u32| base + tri_vertex(k, i, j);
+                    if outline {
+                        out.push([idx(0, 0), idx(k, 0), idx(0, k)]);
+                        continue;
+                    }
                     for j in 0..k {
                         for i in 0..k - j {
                             out.push([idx(i, j), idx(i + 1, j), idx(i, j + 1)]);
@@ -551,9 +567,23 @@ impl RadiosityMesh {
                 }
                 _ => {
                     let idx = |i: u32, j: u32| base + j * (g.n + 1) + i;
-                    for j in 0..g.m {
-                        for i in 0..g.n {
-                            let (a, b, c, d) = (idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1));
+                    // Grid lines kept: all, or the ends (and middles on a Bezier piece).
+                    let lines = |n: u32| -> Vec<u32> {
+                        match (outline, &g.domain) {
+                            (false, _) => (0..=n).collect(),
+                            (true, Domain::Bezier { .. }) if n >= 2 => vec![0, n / 2, n],
+                            (true, _) => vec![0, n],
+                        }
+                    };
+                    let (us, vs) = (lines(g.n), lines(g.m));
+                    for vj in vs.windows(2) {
+                        for ui in us.windows(2) {
+                            let (a, b, c, d) = (
+                                idx(ui[0], vj[0]),
+                                idx(ui[1], vj[0]),
+                                idx(ui[1], vj[1]),
+                                idx(ui[0], vj[1]),
+                            );
                             out.push([a, b, c]);
                             out.push([a, c, d]);
                         }
@@ -849,6 +879,62 @@ mod tests {
             }
             assert!((area - p.area).abs() < 1e-4 * p.area, "{area} vs {}", p.area);
         }
+    }
+
+    /// The outline of a planar patch is its elements' union: the same area, normal
+    /// and solid angle; a curved Bezier piece's outline sees nearly the same solid
+    /// angle as its elements.
+    #[test]
+    fn outline_triangles_stand_for_the_elements() {
+        use crate::selection::triangle_solid_angle;
+        let sa = |m: &RadiosityMesh, tris: &[[u32; 3]], x: Vec3| -> f32 {
+            tris.iter()
+                .map(|t| triangle_solid_angle(x, &t.map(|i| m.vertices[i as usize].p)))
+                .sum()
+        };
+        let mut s = tri_scene();
+        s.bsdfs[1].twosided = true;
+        let m = RadiosityMesh::build(&s, 0.3);
+        for (pi, p) in m.patches.iter().enumerate() {
+            let outline = m.outline_triangles(pi as u32);
+            assert_eq!(outline.len(), if pi == 0 { 1 } else { 2 });
+            let mut area = 0.0;
+            for t in &outline {
+                let [a, b, c] = t.map(|i| m.vertices[i as usize]);
+                let n = (b.p - a.p).cross(c.p - a.p);
+                area += 0.5 * n.length();
+                assert!(n.normalize().dot(a.n) > 0.999, "patch {pi}");
+            }
+            assert!((area - p.area).abs() < 1e-4 * p.area, "{area} vs {}", p.area);
+            let x = m.vertices[p.first_vertex as usize].p
+                + m.vertices[p.first_vertex as usize].n * 0.7
+                + Vec3::splat(0.2);
+            let (o, e) = (sa(&m, &outline, x), sa(&m, &m.element_triangles(pi as u32), x));
+            assert!((o - e).abs() < 1e-4 * e.max(1e-3), "patch {pi}: {o} vs {e}");
+        }
+        let patches = crate::geometry::bezier::read_bpt(&crate::testutil::teapot_bpt()).unwrap();
+        let teapot = crate::geometry::bezier::tessellate(&patches, 4, 8);
+        let s = crate::testutil::scene(vec![(teapot, Vec3::splat(0.5))], vec![], &[]);
+        let m = RadiosityMesh::build(&s, 0.05);
+        let x = Vec3::new(0.0, 6.0, 4.0);
+        let (mut checked, mut rel_sum) = (0, 0.0);
+        for pi in 0..m.patches.len() as u32 {
+            let outline = m.outline_triangles(pi);
+            assert!(outline.len() <= 8);
+            let e = sa(&m, &m.element_triangles(pi), x);
+            if e > 1e-3 {
+                let rel = (sa(&m, &outline, x) - e).abs() / e;
+                assert!(rel < 0.1, "patch {pi}: {rel}");
+                rel_sum += rel;
+                checked += 1;
+            }
+        }
+        assert!(checked > 20, "{checked}");
+        assert!(
+            rel_sum / (checked as f32) < 0.02,
+            "mean {}",
+            rel_sum / checked as f32
+        );
     }
 
     /// Gouraud interpolation of a linear function of position is exact, at any hit.

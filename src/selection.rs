@@ -239,7 +239,8 @@ fn solid_angle(x: Vec3, tris: &[[Vec3; 3]]) -> f32 {
         .sum()
 }
 
-/// The triangles of a source (empty for point and spot lights).
+/// The triangles of a source (empty for point and spot lights); a radiant patch as its
+/// outline (the solid angle of its elements together).
 fn source_triangles(scene: &Scene, sol: &Solution, s: SourceId) -> Vec<[Vec3; 3]> {
     match s {
         SourceId::Light(l) => match scene.lights[l as usize] {
@@ -251,7 +252,7 @@ fn source_triangles(scene: &Scene, sol: &Solution, s: SourceId) -> Vec<[Vec3; 3]
         },
         SourceId::Patch(p) => sol
             .mesh
-            .element_triangles(p)
+            .outline_triangles(p)
             .iter()
             .map(|t| t.map(|v| sol.mesh.vertices[v as usize].p))
             .collect(),

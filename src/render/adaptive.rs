@@ -47,6 +47,9 @@ pub struct Sample {
     pub pos: Vec2,
     /// Radiance found.
     pub value: Rgb,
+    /// Its display value (sRGB, 0..1, after the exposure): what the difference
+    /// criterion compares.
+    pub display: Vec3,
     /// The object (shape) the primary ray hit, or [`NO_OBJECT`].
     pub object: u32,
     /// The level it was taken at (-1 ..= max level).
@@ -505,28 +508,25 @@ fn nearest_stored(set: &SampleSet, pos: Vec2) -> [u32; 4] {
 /// Whether the refinement criteria fire among `samples`: object, shadow (a point light
 /// lit at one, shadowed at another) or difference.
 fn differ<'s>(samples: impl IntoIterator<Item = &'s Sample>, refine: &Refine) -> bool {
-    let scale = 2f32.powf(refine.exposure);
-    let display = |v: Rgb| {
-        (v * scale)
-            .clamp(Vec3::ZERO, Vec3::ONE)
-            .to_array()
-            .map(srgb_encode)
-    };
     let (mut object, mut lit, mut dark) = (None, 0u64, 0u64);
-    let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
     for s in samples {
         if *object.get_or_insert(s.object) != s.object {
             return true;
         }
         lit |= s.point_known & s.point_lit;
         dark |= s.point_known & !s.point_lit;
-        let d = display(s.value);
-        for c in 0..3 {
-            lo[c] = lo[c].min(d[c]);
-            hi[c] = hi[c].max(d[c]);
-        }
+        lo = lo.min(s.display);
+        hi = hi.max(s.display);
     }
-    lit & dark != 0 || (0..3).any(|c| hi[c] - lo[c] > refine.contrast)
+    lit & dark != 0 || (hi - lo).max_element() > refine.contrast
+}
+
+/// The display value of radiance `v` with `exposure` stops: sRGB-encoded, clipped to
+/// 0..1.
+fn display(v: Rgb, exposure: f32) -> Vec3 {
+    let v = if exposure == 0.0 { v } else { v * exposure.exp2() };
+    Vec3::from_array(v.clamp(Vec3::ZERO, Vec3::ONE).to_array().map(srgb_encode))
 }
 
 /// The samples of one work item of a level, with their SIB records (record lengths
@@ -588,6 +588,7 @@ fn run_level(
                 samples.push(Sample {
                     pos: t.pos,
                     value,
+                    display: display(value, refine.exposure),
                     object,
                     level: level as i8,
                     point_known,

@@ -312,15 +312,17 @@ pub fn group_bounds(g: u32, r: u32, n: u32) -> (u32, u32) {
 
 /// A point, uniform over sub-sources `[start, end)` of `n`, of the emitter's sampling
 /// square: `xi[0]` picks the place along the Hilbert curve, `xi[1..]` jitters within
-/// the curve's finest cell. The curve's stretch `[k/n, (k+1)/n)` is sub-source k; the
+/// the curve's finest cell (four levels finer than the sub-sources). The curve's stretch `[k/n, (k+1)/n)` is sub-source k; the
 /// curve is measure preserving, so sub-sources have equal area.
 pub fn sub_source_uv(start: u32, end: u32, n: u32, xi: [f32; 3]) -> Vec2 {
-    const ORDER: u32 = 16;
+    // Four levels of the curve below the sub-sources' own: a group's ends fall inside
+    // a finest cell at most 1/256 of a sub-source wide.
+    let order = (n.max(1).next_power_of_two().trailing_zeros().div_ceil(2) + 4).min(16);
     let t = (start as f64 + xi[0] as f64 * (end - start) as f64) / n.max(1) as f64;
-    let cells = 1u64 << (2 * ORDER);
+    let cells = 1u64 << (2 * order);
     let d = ((t * cells as f64) as u64).min(cells - 1);
-    let (x, y) = hilbert_d2xy(ORDER, d);
-    let side = (1u32 << ORDER) as f32;
+    let (x, y) = hilbert_d2xy(order, d);
+    let side = (1u32 << order) as f32;
     Vec2::new(
         ((x as f32 + xi[1]) / side).min(1.0 - f32::EPSILON),
         ((y as f32 + xi[2]) / side).min(1.0 - f32::EPSILON),

@@ -200,6 +200,7 @@ fn the_difference_criterion_refines_only_where_values_differ() {
     let a = Sample {
         pos: Vec2::ZERO,
         value: Vec3::splat(0.5),
+        display: display(Vec3::splat(0.5), 0.0),
         object: 1,
         level: 0,
         point_known: 1,
@@ -207,41 +208,29 @@ fn the_difference_criterion_refines_only_where_values_differ() {
         rays: 0,
         saved: 0,
     };
-    let r = Refine {
-        max_level: 2,
-        contrast: 0.05,
-        exposure: 0.0,
-        sib: true,
-    };
-    let b = Sample {
-        value: Vec3::new(0.5, 0.5, 0.52),
+    let at = |value: Vec3, exposure: f32| Sample {
+        value,
+        display: display(value, exposure),
         ..a
     };
-    assert!(!differ([&a, &b], &r), "a small difference");
-    let c = Sample {
-        value: Vec3::new(0.5, 0.5, 0.7),
-        ..a
-    };
+    let r = Refine::default();
+    assert!(!differ([&a, &at(Vec3::new(0.5, 0.5, 0.52), 0.0)], &r), "small");
+    let c = at(Vec3::new(0.5, 0.5, 0.7), 0.0);
     assert!(differ([&a, &c], &r), "difference");
     assert!(differ([&a, &Sample { object: 2, ..a }], &r), "object");
     assert!(
         differ([&a, &Sample { point_lit: 0, ..a }], &r),
-        "shadow of a point light"
+        "point light shadow"
     );
-    assert!(
-        !differ(
-            [
-                &a,
-                &Sample {
-                    point_known: 0,
-                    point_lit: 0,
-                    ..a
-                }
-            ],
-            &r
-        ),
-        "unknown is no shadow edge"
-    );
-    // Exposure: -3 stops makes the same difference invisible.
-    assert!(!differ([&a, &c], &Refine { exposure: -8.0, ..r }));
+    let unknown = Sample {
+        point_known: 0,
+        point_lit: 0,
+        ..a
+    };
+    assert!(!differ([&a, &unknown], &r), "unknown is no shadow edge");
+    // Exposure: -8 stops makes the same difference invisible.
+    assert!(!differ([&at(a.value, -8.0), &at(c.value, -8.0)], &r));
+    // The display value is sRGB: mid grey 0.214 encodes to about 0.5.
+    assert!((display(Vec3::splat(0.214), 0.0).x - 0.5).abs() < 0.002);
+    assert_eq!(display(Vec3::splat(7.0), 0.0), Vec3::ONE);
 }
