@@ -11,8 +11,9 @@
 //! to a block, and tested four at a time (Moeller-Trumbore).
 
 use glam::{Vec2, Vec3, Vec3A, Vec4};
-use obvhs::cwbvh::{builder::build_cwbvh, node::CwBvhNode};
+use obvhs::cwbvh::{builder::build_cwbvh_from_tris, node::CwBvhNode};
 use obvhs::rt_triangle::RtTriangle;
+use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
 
 use crate::scene::Scene;
@@ -342,8 +343,11 @@ pub struct Bvh {
     depth: usize,
     /// Triangles in the order of the BVH's leaves, four to a block.
     blocks: Vec<Tri4>,
-    /// For each triangle in leaf order, the scene triangle it is.
+    /// For each triangle in leaf order, the scene triangle it is (a split triangle
+    /// appears more than once).
     refs: Vec<TriRef>,
+    /// Distinct triangles.
+    count: usize,
     /// Number of degenerate (zero-area or non-finite) triangles of input meshes left
     /// out (those of collapsed Bezier patch edges are left out too, but not counted).
     pub skipped: usize,
@@ -385,18 +389,24 @@ impl Bvh {
                 depth: 0,
                 blocks: Vec::new(),
                 refs,
+                count: 0,
                 skipped,
             };
         }
         let mut build_time = Default::default();
-        // obvhs's slow preset (wider PLOC search, more reinsertion) without spatial
-        // pre-splits: about 1.5x the medium preset's build time for 5-15% fewer
-        // instructions per ray (callgrind, `radtrace bench`); pre-splits gained nothing.
-        let params = BvhBuildParams {
-            pre_split: false,
-            ..BvhBuildParams::slow_build()
-        };
-        let bvh = build_cwbvh(&tris, params, &mut build_time);
+        // obvhs's slow preset (wider PLOC search, more reinsertion, large triangles'
+        // boxes pre-split): about 1.5x the medium preset's build time for 5-15% fewer
+        // instructions per ray (callgrind, `radtrace bench`; the pre-splits are 4% of
+        // that on the conference room). A split triangle is listed in several leaves.
+        let corners: Vec<Triangle> = tris
+            .iter()
+            .map(|t| Triangle {
+                v0: t.v0,
+                v1: t.v0 - t.e1,
+                v2: t.v0 + t.e2,
+            })
+            .collect();
+        let bvh = build_cwbvh_from_tris(&corners, BvhBuildParams::slow_build(), &mut build_time);
         // Reorder the triangles into leaf order so traversal reads them contiguously.
         let tris: Vec<RtTriangle> = bvh.primitive_indices.iter().map(|&i| tris[i as usize]).collect();
         let refs: Vec<TriRef> = bvh.primitive_indices.iter().map(|&i| refs[i as usize]).collect();
@@ -406,13 +416,14 @@ impl Bvh {
             nodes,
             blocks: Tri4::pack(&tris),
             refs,
+            count: corners.len(),
             skipped,
         }
     }
 
     /// Number of triangles in the BVH.
     pub fn triangle_count(&self) -> usize {
-        self.refs.len()
+        self.count
     }
 
     /// Walks the tree for `r`. `leaf(b, lanes, tmax)` tests the triangles `lanes`
