@@ -247,11 +247,11 @@ def print_table(results, threads):
                   f"{ratio(r['radtrace_1t'], r['embree_1t']):>5.2f}x  {r['radtrace_nt']:>11.2f} {r['embree_nt']:>10.2f} "
                   f"{ratio(r['radtrace_nt'], r['embree_nt']):>5.2f}x  {100 * a:>7.3f}%")
     print()
-    print(f"{'BVH build, ms':<24} {'radtrace':>10} {'Embree':>10} {'ratio':>8}   (both on all threads)")
+    print(f"{'BVH build, ms':<24} {'radtrace':>10} {'Embree':>10} {'Embree/radtrace':>16}   (both on all threads)")
     for res in results:
         b = res["bvh_build_ms"]
         print(f"{Path(res['scene']).stem + ' (' + str(res['triangles']) + ' tris)':<24} {b['radtrace']:>10.2f} "
-              f"{b['embree']:>10.2f} {ratio(b['embree'], b['radtrace']):>7.2f}x faster" if b["radtrace"] > 0 else "")
+              f"{b['embree']:>10.2f} {ratio(b['embree'], b['radtrace']):>15.2f}x")
     print(f"\n1t: per thread-CPU second; {n}t/{n}p: per wall second, Embree on {n} processes (its run() holds "
           "the GIL); agree: same triangle (or a tie at the same distance) or occluded flag")
     try:
