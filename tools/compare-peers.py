@@ -10,7 +10,12 @@
    rays, since `run` holds the GIL). The answers are checked against each other (same
    triangle or occluded flag for > 99.9% of the rays, same distance where both hit the
    same triangle) before any figure is printed.
-2. Time to equal quality against Mitsuba 3: see MITSUBA HOOK below (not done yet).
+2. Time to equal quality against Mitsuba 3 (path tracer) on the same scene file: one
+   high-sample Mitsuba reference (--reference-spp, cached), Mitsuba at --mitsuba-spp
+   (its render time and mean FLIP against the reference), and radtrace's default render
+   (the whole process, solve included) with its FLIP against the same reference; if
+   radtrace's FLIP is worse it is re-run with more effort until it is not. The figure is
+   Mitsuba's time / radtrace's time (issue 6: at least 5 on the Cornell box).
 
 Ratios, not absolute times, are the figures: the machine is shared and noisy. Each
 figure is the best of --rounds rounds (alternating the two tracers) of --repeats runs; 1-thread figures are per second of the thread's
@@ -37,7 +42,8 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
 DEFAULT_VENV = Path.home() / ".cache" / "radtrace-peers"
-PIP_PACKAGES = ["embreex==4.4.0.post1", "numpy"]
+PIP_PACKAGES = ["embreex==4.4.0.post1", "numpy", "mitsuba==3.9.*"]
+LLVM = Path("/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1")
 KINDS = ["camera", "shadow", "incoherent"]
 DEFAULT_SCENES = [
     "scenes/cornell-box/cornell-box.xml",
@@ -51,6 +57,7 @@ def ensure_venv(venv: Path) -> None:
     packages are importable here already."""
     try:
         import embreex  # noqa: F401
+        import mitsuba  # noqa: F401
         import numpy  # noqa: F401
 
         return
@@ -62,7 +69,7 @@ def ensure_venv(venv: Path) -> None:
     if not py.exists():
         print(f"compare-peers: creating {venv}", file=sys.stderr)
         subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
-    check = subprocess.run([str(py), "-c", "import embreex, numpy"], capture_output=True)
+    check = subprocess.run([str(py), "-c", "import embreex, numpy, mitsuba"], capture_output=True)
     if check.returncode != 0:
         print(f"compare-peers: installing {' '.join(PIP_PACKAGES)}", file=sys.stderr)
         subprocess.run([str(py), "-m", "pip", "install", "-q", *PIP_PACKAGES], check=True)
@@ -262,20 +269,131 @@ def print_table(results, threads):
 
 
 # ---------------------------------------------------------------------------------
-# MITSUBA HOOK (time to equal quality) -- to be filled in by the render owner once
-# the default render (local selection + shadow image buffer) lands. Plan of issue 6:
-#   * one high-sample Mitsuba reference per view: ../shared/tools/mitsuba-reference
-#     (at run time this script may only take its path from --mitsuba-reference; the
-#     repository never reads ../shared itself);
-#   * Mitsuba 64 spp with --time: wall time T_m and mean FLIP F_m against the reference
-#     (`radtrace compare REF IMG --json`);
-#   * radtrace's default render (whole process, solve included) at increasing quality
-#     until its FLIP <= F_m: wall time T_r; target T_r <= T_m / 5 on the Cornell box;
-#   * rows: scene, view, Mitsuba spp/time/FLIP, radtrace settings/time/FLIP, ratio.
+# Time to equal quality against Mitsuba 3.
 # ---------------------------------------------------------------------------------
-def mitsuba_time_to_quality(args):
-    """Not implemented yet: see MITSUBA HOOK above."""
-    return None
+MITSUBA_RENDER = r"""
+import json, os, sys, time
+import mitsuba as mi
+scene_file, out, spp, seed, defines = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), json.loads(sys.argv[5])
+for v in (["llvm_ad_rgb", "scalar_rgb"] if os.environ.get("DRJIT_LIBLLVM_PATH") else ["scalar_rgb"]):
+    try:
+        mi.set_variant(v)
+        break
+    except Exception:
+        pass
+scene = mi.load_file(scene_file, **defines)
+t = time.perf_counter()
+img = mi.render(scene, integrator=mi.load_dict({"type": "path", "max_depth": 8}), spp=spp, seed=seed)
+bmp = mi.Bitmap(img)
+wall = time.perf_counter() - t
+bmp.write(out)
+print(json.dumps({"variant": mi.variant(), "render_s": wall}))
+"""
+
+
+def mitsuba_env():
+    """Mitsuba's LLVM backend needs Debian's libllvm19 (older ones crash it); installed
+    on demand when running as root, as ../shared/tools/mitsuba-reference does.
+    Without it Mitsuba falls back to its much slower scalar variant."""
+    if not LLVM.exists() and os.geteuid() == 0:
+        print("compare-peers: installing libllvm19 for Mitsuba's LLVM backend", file=sys.stderr)
+        subprocess.run(["apt-get", "install", "-y", "-q", "libllvm19"], capture_output=True)
+    env = dict(os.environ)
+    if LLVM.exists():
+        env["DRJIT_LIBLLVM_PATH"] = str(LLVM)
+    return env
+
+
+def mitsuba_render(scene: Path, out: Path, spp: int, seed: int, defines: dict) -> dict:
+    """Renders with Mitsuba's path tracer in a fresh process; returns its render time
+    (as ../shared/tools/mitsuba-reference --time reports it) and the process's."""
+    t = time.perf_counter()
+    r = subprocess.run(
+        [sys.executable, "-c", MITSUBA_RENDER, str(scene), str(out), str(spp), str(seed), json.dumps(defines)],
+        capture_output=True, text=True, env=mitsuba_env(),
+    )
+    if r.returncode != 0:
+        sys.exit(f"compare-peers: error: Mitsuba failed on {scene}:\n{r.stderr[-2000:]}")
+    doc = json.loads(r.stdout.strip().splitlines()[-1])
+    doc["process_s"] = time.perf_counter() - t
+    return doc
+
+
+def flip(exe: str, ref: Path, img: Path) -> float:
+    r = subprocess.run([exe, "compare", str(ref), str(img), "--json"], capture_output=True, text=True, check=True)
+    return json.loads(r.stdout)["flip"]
+
+
+def mitsuba_defines(exe: str, scene: Path, work: Path) -> dict:
+    """Scene parameters Mitsuba needs: the paper room's Bezier teapot as an OBJ."""
+    if "teapot_type" not in scene.read_text():
+        return {}
+    obj = work / "teapot.obj"
+    subprocess.run([exe, "tessellate", str(scene.parent / "teapot.bpt"), "-o", str(obj)], check=True, capture_output=True)
+    return {"teapot_type": "obj", "teapot_file": str(obj)}
+
+
+# radtrace settings tried in turn until its FLIP is no worse than Mitsuba's: the
+# default first, then more effort on the radiosity (pass 1) and the image (pass 2).
+EFFORT = [[], ["--shoot-samples", "128"], ["--shoot-samples", "128", "--max-level", "3"]]
+
+
+def mitsuba_time_to_quality(args, exe: str):
+    import hashlib
+
+    rows = []
+    cache = args.venv / "references"
+    cache.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp)
+        for entry in args.mitsuba_scenes:
+            path, _, view = entry.partition(":")
+            scene = Path(path) if Path(path).is_absolute() else REPO / path
+            view = int(view or 0)
+            if view != 0:
+                sys.exit("compare-peers: error: the Mitsuba comparison renders sensor 0 only")
+            defines = mitsuba_defines(exe, scene, work)
+            key = hashlib.sha256(scene.read_bytes()).hexdigest()[:12]
+            ref = Path(args.reference) if args.reference else cache / f"{scene.stem}-{key}-{args.reference_spp}spp.exr"
+            if not ref.exists():
+                print(f"compare-peers: Mitsuba reference, {args.reference_spp} spp (cached in {ref})", file=sys.stderr)
+                mitsuba_render(scene, ref, args.reference_spp, 0, defines)
+            print(f"compare-peers: Mitsuba {args.mitsuba_spp} spp on {scene.name}", file=sys.stderr)
+            best_m = None
+            for _ in range(args.rounds):
+                m = mitsuba_render(scene, work / "m.exr", args.mitsuba_spp, 1, defines)
+                if best_m is None or m["render_s"] < best_m["render_s"]:
+                    best_m = m
+            f_m = flip(exe, ref, work / "m.exr")
+            for effort in EFFORT:
+                print(f"compare-peers: radtrace {' '.join(effort) or '(default)'} on {scene.name}", file=sys.stderr)
+                t_r = None
+                for _ in range(args.rounds):
+                    t = time.perf_counter()
+                    subprocess.run([exe, "render", str(scene), "-o", str(work / "r.exr"), "-q", *effort], check=True)
+                    t_r = min(t_r or 1e30, time.perf_counter() - t)
+                f_r = flip(exe, ref, work / "r.exr")
+                if f_r <= f_m:
+                    break
+            rows.append({
+                "scene": scene.name, "reference_spp": args.reference_spp, "mitsuba_spp": args.mitsuba_spp,
+                "mitsuba_variant": best_m["variant"], "mitsuba_render_s": best_m["render_s"],
+                "mitsuba_process_s": best_m["process_s"], "mitsuba_flip": f_m,
+                "radtrace_args": effort, "radtrace_process_s": t_r, "radtrace_flip": f_r,
+                "ratio": best_m["render_s"] / t_r, "equal_quality": f_r <= f_m,
+            })
+    print()
+    print(f"time to equal quality (mean FLIP against Mitsuba path {args.reference_spp} spp; load average {os.getloadavg()[0]:.2f})")
+    print(f"{'scene':<20} {'Mitsuba':>8} {'render s':>9} {'FLIP':>7}   {'radtrace':<28} {'process s':>9} {'FLIP':>7}  {'Mitsuba/radtrace':>16}")
+    for r in rows:
+        label = " ".join(r["radtrace_args"]) or "default"
+        print(f"{r['scene']:<20} {str(r['mitsuba_spp']) + ' spp':>8} {r['mitsuba_render_s']:9.2f} {r['mitsuba_flip']:7.4f}   "
+              f"{label:<28} {r['radtrace_process_s']:9.2f} {r['radtrace_flip']:7.4f}  {r['ratio']:15.1f}x"
+              + ("" if r["equal_quality"] else "  (radtrace's FLIP stayed worse)"))
+    print("(Mitsuba: the time of mi.render (kernel compilation included, as mitsuba-reference --time), best of --rounds,")
+    print(" Python start-up and scene loading excluded;")
+    print(" radtrace: the whole process, scene loading, BVH and radiosity solve included, best of --rounds)")
+    return rows
 
 
 def main():
@@ -289,7 +407,13 @@ def main():
     ap.add_argument("--height", type=int, default=512)
     ap.add_argument("--venv", type=Path, default=DEFAULT_VENV)
     ap.add_argument("--json", type=Path, help="also write the results as JSON")
-    ap.add_argument("--mitsuba-reference", help="(for the MITSUBA HOOK; unused so far)")
+    ap.add_argument("--no-rays", action="store_true", help="skip the ray comparison with Embree")
+    ap.add_argument("--no-mitsuba", action="store_true", help="skip the time-to-quality comparison with Mitsuba")
+    ap.add_argument("--mitsuba-scenes", nargs="+", default=["scenes/cornell-box/cornell-box.xml"],
+                    help="scenes of the Mitsuba comparison (sensor 0)")
+    ap.add_argument("--mitsuba-spp", type=int, default=64, help="Mitsuba's samples per pixel to match")
+    ap.add_argument("--reference-spp", type=int, default=1024, help="samples per pixel of the Mitsuba reference")
+    ap.add_argument("--reference", help="an existing Mitsuba reference EXR to use (one scene)")
     args = ap.parse_args()
     ensure_venv(args.venv)
 
@@ -298,11 +422,13 @@ def main():
     ]
     exe = radtrace_binary(args)
     results = []
-    for s in scenes:
-        print(f"compare-peers: {s}", file=sys.stderr)
-        results.append(compare_scene(args, exe, s))
-    ok = print_table(results, args.threads)
-    mitsuba = mitsuba_time_to_quality(args)
+    ok = True
+    if not args.no_rays:
+        for s in scenes:
+            print(f"compare-peers: {s}", file=sys.stderr)
+            results.append(compare_scene(args, exe, s))
+        ok = print_table(results, args.threads)
+    mitsuba = None if args.no_mitsuba else mitsuba_time_to_quality(args, exe)
     if args.json:
         args.json.write_text(json.dumps({"rays": results, "mitsuba": mitsuba}, indent=2) + "\n")
     if not ok:
