@@ -286,6 +286,26 @@ pub struct SolveFigures {
     pub mrays: f64,
 }
 
+/// One view rendered with the default method (local selection, adaptive sampling with
+/// the shadow image buffer) from the solve.
+#[derive(Debug, Clone, Serialize)]
+pub struct RenderFigures {
+    /// The view.
+    pub view: usize,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Samples (primary rays).
+    pub samples: u64,
+    /// Shadow rays cast.
+    pub shadow_rays: u64,
+    /// Wall seconds on all threads: selection, sampling and reconstruction.
+    pub time_s: f64,
+    /// The same on one thread, if measured (`--solve-scaling`).
+    pub time_1t_s: Option<f64>,
+}
+
 /// Everything `radtrace bench` measured.
 #[derive(Debug, Clone, Serialize)]
 pub struct Report {
@@ -307,6 +327,9 @@ pub struct Report {
     pub rays: Vec<RayFigures>,
     /// The radiosity solve (null with `--no-solve`).
     pub solve: Option<SolveFigures>,
+    /// Each view rendered with the default method from the solve (empty with
+    /// `--no-solve`).
+    pub renders: Vec<RenderFigures>,
     /// Peak resident memory (VmHWM), MiB; null where /proc is missing.
     pub peak_rss_mib: Option<f64>,
     /// The 1-minute load average when the measurement ended (how busy the machine
@@ -323,7 +346,7 @@ pub struct Plan {
     pub repeats: u32,
     /// Solve settings, or `None` to skip the solve.
     pub solve: Option<crate::radiosity::SolveSettings>,
-    /// Also solve on one thread.
+    /// Also solve and render on one thread.
     pub solve_scaling: bool,
     /// Write triangles, rays and answers here.
     pub dump: Option<std::path::PathBuf>,
@@ -358,10 +381,28 @@ pub fn run(scene: &Scene, plan: &Plan, threads: usize) -> Result<Report> {
     if let Some(dir) = &plan.dump {
         dump(dir, scene, &bvh, &sets)?;
     }
+    let mut renders = Vec::new();
     let solve = match &plan.solve {
         None => None,
         Some(st) => {
             let sol = crate::radiosity::solve(scene, &bvh, st, None);
+            for view in 0..scene.sensors.len() {
+                let (time_s, (samples, shadow_rays)) =
+                    best_of(1, || render_view(scene, &bvh, &sol, view, plan));
+                let time_1t_s = plan
+                    .solve_scaling
+                    .then(|| one.install(|| best_of(1, || render_view(scene, &bvh, &sol, view, plan)).0));
+                let sensor = &scene.sensors[view];
+                renders.push(RenderFigures {
+                    view,
+                    width: sensor.width,
+                    height: sensor.height,
+                    samples,
+                    shadow_rays,
+                    time_s,
+                    time_1t_s,
+                });
+            }
             let time_1t_s = plan
                 .solve_scaling
                 .then(|| one.install(|| crate::radiosity::solve(scene, &bvh, st, None).stats.time_s));
@@ -390,11 +431,51 @@ pub fn run(scene: &Scene, plan: &Plan, threads: usize) -> Result<Report> {
         bvh_build_s,
         rays,
         solve,
+        renders,
         peak_rss_mib: peak_rss_mib(),
         load_avg: std::fs::read_to_string("/proc/loadavg")
             .ok()
             .and_then(|l| l.split_whitespace().next()?.parse().ok()),
     })
+}
+
+/// Renders `view` with the defaults of `radtrace render` (local selection, adaptive
+/// sampling to level 2 with the shadow image buffer): (samples, shadow rays).
+fn render_view(
+    scene: &Scene,
+    bvh: &Bvh,
+    sol: &crate::radiosity::Solution,
+    view: usize,
+    plan: &Plan,
+) -> (u64, u64) {
+    use crate::render::{Filter, Method, Refine, Sampler, Settings};
+    use crate::selection::{select, SelectSettings, ViewScale};
+    let sensor = &scene.sensors[view];
+    let camera = Camera::new(sensor, sensor.width, sensor.height);
+    let settings = Settings {
+        method: Method::Local,
+        view,
+        width: sensor.width,
+        height: sensor.height,
+        spp: 1,
+        seed: plan.options.seed,
+        area_samples: 64,
+        max_depth: 6,
+        filter: Filter::Gaussian,
+        sampler: Sampler::Adaptive,
+        refine: Refine::default(),
+    };
+    let sel = select(
+        scene,
+        sol,
+        Method::Local,
+        &SelectSettings::default(),
+        Some(&ViewScale::of(&camera)),
+    )
+    .expect("local selection of a solution made here");
+    let out = crate::render::render(scene, bvh, &settings, Some(&sel), &crate::render::no_progress)
+        .expect("the bench's own settings render");
+    (out.counters.primary_rays, out.counters.shadow_rays)
 }
 
 /// Peak resident memory of this process (VmHWM of /proc/self/status), MiB.
@@ -448,6 +529,17 @@ pub fn table(r: &Report) -> String {
             s,
             "radiosity solve {:>8.2} s ({} threads), {} shots, {} rays, {:.2} Mrays/s",
             v.time_s, r.threads, v.shots, v.rays, v.mrays
+        );
+        if let Some(t1) = v.time_1t_s {
+            let _ = write!(s, "; 1 thread {:.2} s, scaling {:.2}x", t1, t1 / v.time_s);
+        }
+        s.push('\n');
+    }
+    for v in &r.renders {
+        let _ = write!(
+            s,
+            "render view {} {:>8.2} s ({} threads), {}x{}, local + SIB: {} samples, {} shadow rays",
+            v.view, v.time_s, r.threads, v.width, v.height, v.samples, v.shadow_rays
         );
         if let Some(t1) = v.time_1t_s {
             let _ = write!(s, "; 1 thread {:.2} s, scaling {:.2}x", t1, t1 / v.time_s);

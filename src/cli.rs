@@ -440,10 +440,10 @@ pub struct BenchArgs {
     /// Worker threads of the "all threads" figures [default: all cores].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
     threads: Option<u32>,
-    /// Skip the radiosity solve.
+    /// Skip the radiosity solve (and the renders of the views, which need it).
     #[arg(long)]
     no_solve: bool,
-    /// Also solve on one thread, for the 1-vs-all-threads scaling.
+    /// Also solve and render on one thread, for the 1-vs-all-threads scaling.
     #[arg(long, conflicts_with = "no_solve")]
     solve_scaling: bool,
     #[command(flatten)]
