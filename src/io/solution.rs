@@ -355,10 +355,9 @@ pub fn save(solution: &Solution, scene: &Scene, path: &Path) -> Result<()> {
 }
 
 /// Reads the header and at most the declared payload length (plus one byte, to
-/// notice extra data) of the file at `path`.
-fn read_file(path: &Path) -> Result<([u8; HEADER_LEN], Vec<u8>)> {
+/// notice extra data) of `file`, named `path` in errors.
+fn read_file(path: &Path, mut file: impl Read) -> Result<([u8; HEADER_LEN], Vec<u8>)> {
     let bad = |msg: String| Error::input(path, None, msg);
-    let mut file = File::open(path).map_err(|e| Error::io(path, e))?;
     let mut head = Vec::with_capacity(HEADER_LEN);
     (&mut file)
         .take(HEADER_LEN as u64)
@@ -413,8 +412,14 @@ fn read_file(path: &Path) -> Result<([u8; HEADER_LEN], Vec<u8>)> {
 /// Loads a solution for `scene` from `path`: refuses a file that is not a solution
 /// file, of another version, damaged (checksum), or made for another scene.
 pub fn load(path: &Path, scene: &Scene) -> Result<Solution> {
+    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    load_from(path, file, scene)
+}
+
+/// [`load`] from a reader (the file's contents); `path` only names the file in errors.
+pub fn load_from(path: &Path, reader: impl Read, scene: &Scene) -> Result<Solution> {
     let bad = |msg: String| Error::input(path, None, msg);
-    let (head, payload) = read_file(path)?;
+    let (head, payload) = read_file(path, reader)?;
 
     // Checksum.
     let stored = u32::from_le_bytes(head[CHECKSUM_AT..HEADER_LEN].try_into().expect("4 bytes"));
