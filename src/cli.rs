@@ -455,6 +455,10 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
             crate::io::write_image(&out.image, &a.output, a.exposure)
         })?;
         let c = &out.counters;
+        let non_finite = out.image.pixels.iter().filter(|p| !p.is_finite()).count();
+        if non_finite > 0 && !a.quiet {
+            eprintln!("radtrace: warning: {non_finite} pixel(s) are not finite (NaN or infinite)");
+        }
         if !a.quiet {
             eprintln!(
                 "radtrace: {} view {} {}x{} {} spp, {} method: {:.2} s, {} shadow rays, {} diffuse hits ({:.1} per hit) -> {}",
@@ -530,6 +534,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
                 "diffuse_hits": c.diffuse_hits,
                 "reflection_rays": c.reflection_rays,
                 "shadow_rays_per_hit": c.rays_per_hit(),
+                "non_finite_pixels": non_finite,
                 "sources": sources,
                 "solve": solution.as_ref().map(solve_json),
                 "selection": selection.as_ref().map(|sel| selection_json(sel, &select_settings)),
@@ -767,6 +772,16 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
 fn cmd_tessellate(a: TessellateArgs) -> Result<()> {
     check_output_ext(&a.output, &["obj"])?;
     let patches = crate::geometry::bezier::read_bpt(&a.input)?;
+    let tris = crate::geometry::bezier::tessellated_triangles(patches.len(), a.coarse, a.fine);
+    if tris > crate::geometry::bezier::MAX_TESSELLATED_TRIANGLES {
+        return Err(Error::Usage(format!(
+            "--coarse {} --fine {}: {} patches would make {tris} triangles (at most {})",
+            a.coarse,
+            a.fine,
+            patches.len(),
+            crate::geometry::bezier::MAX_TESSELLATED_TRIANGLES
+        )));
+    }
     let mesh = crate::geometry::bezier::tessellate(&patches, a.coarse, a.fine);
     crate::geometry::meshfile::write_obj(&mesh, &a.output)?;
     eprintln!(

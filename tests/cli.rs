@@ -149,6 +149,7 @@ fn stats_json_has_the_documented_keys() {
         assert!(j["time_s"][k].as_f64().unwrap() >= 0.0, "time_s.{k}");
     }
     assert_eq!(j["shadow_rays_per_hit"], 1.0);
+    assert_eq!(j["non_finite_pixels"], 0);
     // Per source: the one light, with a name and its rays.
     let src = &j["sources"][0];
     assert_eq!(
