@@ -225,7 +225,7 @@ fn harmless_input_warns_and_renders_a_finite_image() {
             let err = String::from_utf8_lossy(&o.stderr);
             assert!(o.status.success(), "{scene} {method}: {err}");
             assert!(
-                err.contains(&format!("radtrace: warning: ")) && err.contains(warning),
+                err.contains("radtrace: warning: ") && err.contains(warning),
                 "{scene} {method}: {err}"
             );
             let img = radtrace::io::read_image(&out).unwrap();
