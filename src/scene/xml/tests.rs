@@ -914,6 +914,6 @@ fn text_loads_like_the_file_and_resolves_beside_its_path() {
     // Errors name the given path; the include is looked for beside it.
     let elsewhere = Path::new("/nonexistent/box.xml");
     let e = load_str(elsewhere, &text, &defines).unwrap_err().to_string();
-    assert!(e.starts_with("/nonexistent/box.xml:7:"), "{e}");
-    assert!(e.contains("materials.xml"), "{e}");
+    assert!(e.starts_with("/nonexistent/box.xml:8:24: "), "{e}");
+    assert!(e.contains("/nonexistent/materials.xml"), "{e}");
 }
