@@ -320,6 +320,12 @@ fn parse_define(s: &str) -> std::result::Result<(String, String), String> {
 /// Runs the command line; returns the process exit code.
 pub fn main() -> i32 {
     let cli = Cli::parse();
+    // Ctrl-C: stop at once, but let an output being written be finished and renamed,
+    // so that no partial or temporary file is left. 130 = 128 + SIGINT.
+    let _ = ctrlc::set_handler(|| {
+        eprintln!("radtrace: interrupted");
+        crate::io::exit_after_writes(130)
+    });
     match run(cli) {
         Ok(()) => 0,
         Err(e) => {

@@ -340,3 +340,46 @@ fn an_existing_output_survives_a_failed_or_killed_run() {
         .contains("\"primary_rays\": 64"));
     assert_eq!(listing(d.path()), ["keep.exr", "keep.json"]);
 }
+
+/// Ctrl-C (SIGINT) during a render: exit code 130, the existing output and stats as
+/// they were, no temporary file.
+#[test]
+fn ctrl_c_stops_a_render_and_leaves_the_old_output() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("keep.png");
+    let stats = d.path().join("keep.json");
+    std::fs::write(&out, b"the old image").unwrap();
+    std::fs::write(&stats, b"the old stats").unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_radtrace"))
+        .args([
+            "render",
+            &s(&bad("good.xml")),
+            "-o",
+            &s(&out),
+            "--stats",
+            &s(&stats),
+        ])
+        .args([
+            "--method", "direct", "--width", "512", "--height", "512", "--spp", "65536", "-q",
+        ])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(700));
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(130),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert_eq!(String::from_utf8_lossy(&o.stderr), "radtrace: interrupted\n");
+    assert_eq!(std::fs::read(&out).unwrap(), b"the old image");
+    assert_eq!(std::fs::read(&stats).unwrap(), b"the old stats");
+    assert_eq!(listing(d.path()), ["keep.json", "keep.png"]);
+}
