@@ -350,7 +350,7 @@ fn ctrl_c_stops_a_render_and_leaves_the_old_output() {
     let stats = d.path().join("keep.json");
     std::fs::write(&out, b"the old image").unwrap();
     std::fs::write(&stats, b"the old stats").unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_radtrace"))
+    let child = Command::new(env!("CARGO_BIN_EXE_radtrace"))
         .args([
             "render",
             &s(&bad("good.xml")),
