@@ -3,8 +3,7 @@
 //! `radtrace: error: FILE[:LINE[:COL]]: ...`, naming the file at fault (and the place);
 //! harmless input (a degenerate triangle, a light that emits nothing) gives a warning
 //! and a finite image. No case may panic, write an output or leave a temporary file.
-//! Also: the regression inputs the fuzzers found (`tests/data/fuzz/`), and an existing
-//! output surviving a failed or killed run.
+//! Also: an existing output surviving a failed, killed or interrupted run.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
