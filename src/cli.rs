@@ -470,6 +470,12 @@ fn parse_define(s: &str) -> std::result::Result<(String, String), String> {
 /// Runs the command line; returns the process exit code.
 pub fn main() -> i32 {
     let cli = Cli::parse();
+    // Ctrl-C: stop at once, but let an output being written be finished and renamed,
+    // so that no partial or temporary file is left. 130 = 128 + SIGINT.
+    let _ = ctrlc::set_handler(|| {
+        eprintln!("radtrace: interrupted");
+        crate::io::exit_after_writes(130)
+    });
     match run(cli) {
         Ok(()) => 0,
         Err(e) => {
@@ -653,6 +659,7 @@ fn render_json(
         "diffuse_hits": c.diffuse_hits,
         "reflection_rays": c.reflection_rays,
         "shadow_rays_per_hit": c.rays_per_hit(),
+        "non_finite_pixels": out.image.pixels.iter().filter(|p| !p.is_finite()).count(),
         "levels": out.levels,
         "sources": sources,
         "solve": l.solution.as_ref().filter(|_| settings.method != Method::Direct).map(solve_json),
@@ -789,6 +796,10 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
             crate::io::write_image(&out.image, &a.output, a.exposure)
         })?;
         let c = &out.counters;
+        let non_finite = out.image.pixels.iter().filter(|p| !p.is_finite()).count();
+        if non_finite > 0 && !a.quiet {
+            eprintln!("radtrace: warning: {non_finite} pixel(s) are not finite (NaN or infinite)");
+        }
         let names = source_names(&l.scene, selection.as_ref(), c.sources.len());
         if let (Some(dir), Some(set)) = (&a.sib_images, &out.samples) {
             write_sib_images(dir, set, &names)?;
@@ -1338,6 +1349,16 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
 fn cmd_tessellate(a: TessellateArgs) -> Result<()> {
     check_output_ext(&a.output, &["obj"])?;
     let patches = crate::geometry::bezier::read_bpt(&a.input)?;
+    let tris = crate::geometry::bezier::tessellated_triangles(patches.len(), a.coarse, a.fine);
+    if tris > crate::geometry::bezier::MAX_TESSELLATED_TRIANGLES {
+        return Err(Error::Usage(format!(
+            "--coarse {} --fine {}: {} patches would make {tris} triangles (at most {})",
+            a.coarse,
+            a.fine,
+            patches.len(),
+            crate::geometry::bezier::MAX_TESSELLATED_TRIANGLES
+        )));
+    }
     let mesh = crate::geometry::bezier::tessellate(&patches, a.coarse, a.fine);
     crate::geometry::meshfile::write_obj(&mesh, &a.output)?;
     eprintln!(

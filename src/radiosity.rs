@@ -322,7 +322,9 @@ pub(crate) fn solve_traced(
         if let Some(pb) = progress {
             pb.set_position(((1.0 - s.stats.residual).clamp(0.0, 1.0) * 1000.0) as u64);
         }
-        if s.stats.residual <= settings.tolerance as f64 || s.stats.patch_shots >= settings.max_shots as u64 {
+        // `!(>)`: a NaN residual (which valid scenes cannot give) stops too.
+        if !(s.stats.residual > settings.tolerance as f64) || s.stats.patch_shots >= settings.max_shots as u64
+        {
             break;
         }
         let (best, _) = patch_power

@@ -92,32 +92,66 @@ fn point_light_on_a_plane_renders_the_closed_form_radiance() {
     );
 }
 
+/// Bit-identical images with 1 and 2 threads: the direct method, and local, which
+/// solves pass 1 (in parallel) first; the saved solutions are identical too.
 #[test]
 fn the_same_seed_gives_the_same_image_with_one_or_two_threads() {
     let d = tmp();
-    let scene = write_scene(d.path(), PLANE_SCENE);
-    let mut images = vec![];
+    let scene = write_scene(d.path(), ROOMLET);
+    for method in ["direct", "local"] {
+        let mut images = vec![];
+        for threads in ["1", "2"] {
+            let out = d.path().join(format!("{method}{threads}.exr"));
+            let o = radtrace(&[
+                "render",
+                &s(&scene),
+                "-o",
+                &s(&out),
+                "--spp",
+                "3",
+                "--seed",
+                "7",
+                "--threads",
+                threads,
+                "--method",
+                method,
+                "--mesh-size",
+                "0.4",
+                "-q",
+            ]);
+            assert!(o.status.success(), "{}", stderr(&o));
+            images.push(radtrace::io::read_image(&out).unwrap());
+        }
+        assert!(
+            images[0].pixels.iter().any(|p| p.x > 0.0),
+            "{method}: black image"
+        );
+        assert_eq!(images[0], images[1], "{method}");
+    }
+    let mut solutions = vec![];
     for threads in ["1", "2"] {
-        let out = d.path().join(format!("t{threads}.exr"));
+        let sol = d.path().join(format!("t{threads}.sol"));
         let o = radtrace(&[
-            "render",
+            "solve",
             &s(&scene),
             "-o",
-            &s(&out),
-            "--spp",
-            "3",
+            &s(&sol),
             "--seed",
             "7",
             "--threads",
             threads,
-            "--method",
-            "direct",
+            "--mesh-size",
+            "0.4",
             "-q",
         ]);
         assert!(o.status.success(), "{}", stderr(&o));
-        images.push(radtrace::io::read_image(&out).unwrap());
+        let sc = radtrace::scene::xml::load(&scene, &[]).unwrap().scene;
+        solutions.push(radtrace::io::solution::load(&sol, &sc).unwrap());
     }
-    assert_eq!(images[0], images[1]);
+    // Equal to the bit (only the solve's wall time differs).
+    assert!(solutions[0].total().iter().any(|c| c.x > 0.0));
+    assert_eq!(solutions[0].general, solutions[1].general);
+    assert_eq!(solutions[0].lists, solutions[1].lists);
 }
 
 #[test]
@@ -149,6 +183,7 @@ fn stats_json_has_the_documented_keys() {
         assert!(j["time_s"][k].as_f64().unwrap() >= 0.0, "time_s.{k}");
     }
     assert_eq!(j["shadow_rays_per_hit"], 1.0);
+    assert_eq!(j["non_finite_pixels"], 0);
     // Per source: the one light, with a name and its rays.
     let src = &j["sources"][0];
     assert_eq!(

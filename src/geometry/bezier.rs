@@ -12,7 +12,7 @@ use std::path::Path;
 use glam::{DVec3, Vec2, Vec3};
 
 use crate::error::Pos;
-use crate::geometry::meshfile::{parse_finite, text_lines, tokens};
+use crate::geometry::meshfile::{parse_coord, text_lines, tokens};
 use crate::geometry::{Patch, TriMesh};
 use crate::{Error, Result};
 
@@ -121,7 +121,12 @@ const MAX_BPT_PATCHES: u64 = 1_000_000;
 /// wrong). Errors name the file and line (and column for bad numbers).
 pub fn read_bpt(path: &Path) -> Result<Vec<BezierPatch>> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let lines = text_lines(path, &bytes)?;
+    parse_bpt(path, &bytes)
+}
+
+/// [`read_bpt`] on the file's contents; `path` only names the file in errors.
+pub fn parse_bpt(path: &Path, bytes: &[u8]) -> Result<Vec<BezierPatch>> {
+    let lines = text_lines(path, bytes)?;
     let mut it = lines
         .iter()
         .filter(|(_, l)| {
@@ -218,7 +223,7 @@ pub fn read_bpt(path: &Path) -> Result<Vec<BezierPatch>> {
             }
             let mut xyz = [0.0f32; 3];
             for (x, &(col, tok)) in xyz.iter_mut().zip(&toks) {
-                *x = parse_finite(path, line, col, tok)?;
+                *x = parse_coord(path, line, col, tok)?;
             }
             *slot = Vec3::from_array(xyz);
         }
@@ -232,6 +237,16 @@ pub fn read_bpt(path: &Path) -> Result<Vec<BezierPatch>> {
         ));
     }
     Ok(patches)
+}
+
+/// Most triangles a tessellation may make (about 2 GB of mesh).
+pub const MAX_TESSELLATED_TRIANGLES: u64 = 20_000_000;
+
+/// Triangles [`tessellate`]`(patches, coarse, fine)` makes: `2 (coarse fine)^2` per
+/// patch.
+pub fn tessellated_triangles(patches: usize, coarse: u32, fine: u32) -> u64 {
+    let n = u64::from(coarse.max(1)) * u64::from(fine.max(1));
+    (patches as u64).saturating_mul(2 * n * n)
 }
 
 /// Tessellates `patches` into a mesh with smooth normals and per-vertex (u, v):

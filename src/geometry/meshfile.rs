@@ -17,7 +17,7 @@ use ply_rs_bw::parser::{ParseError, Parser, Reader};
 use ply_rs_bw::ply::{Encoding, Header, Property, PropertyAccess, PropertyType, ScalarType};
 
 use crate::error::Pos;
-use crate::geometry::{Patch, TriMesh};
+use crate::geometry::{Patch, TriMesh, MAX_COORD};
 use crate::{Error, Result};
 
 // ---------------------------------------------------------------------------
@@ -73,6 +73,19 @@ pub(crate) fn tokens(line: &str) -> Vec<(u32, &str)> {
         out.push((c, &line[s..]));
     }
     out
+}
+
+/// Parses a coordinate: a finite `f32` no larger than [`MAX_COORD`] in magnitude.
+pub(crate) fn parse_coord(path: &Path, line: u32, col: u32, tok: &str) -> Result<f32> {
+    let x = parse_finite(path, line, col, tok)?;
+    if x.abs() > MAX_COORD {
+        return Err(Error::input(
+            path,
+            Some(Pos { line, col }),
+            format!("coordinate '{tok}' is absurdly large (at most {MAX_COORD:e})"),
+        ));
+    }
+    Ok(x)
 }
 
 /// Parses a finite `f32`; anything else is an error at `line:col`.
@@ -253,7 +266,12 @@ fn parse_corner(path: &Path, line: u32, col: u32, tok: &str, counts: [usize; 3])
 /// are ignored and `normals` is left empty.
 pub fn read_obj(path: &Path, face_normals: bool) -> Result<TriMesh> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let lines = text_lines(path, &bytes)?;
+    parse_obj(path, &bytes, face_normals)
+}
+
+/// [`read_obj`] on the file's contents; `path` only names the file in errors.
+pub fn parse_obj(path: &Path, bytes: &[u8], face_normals: bool) -> Result<TriMesh> {
+    let lines = text_lines(path, bytes)?;
     let mut pos: Vec<Vec3> = Vec::new();
     let mut tex: Vec<Vec2> = Vec::new();
     let mut nor: Vec<Vec3> = Vec::new();
@@ -265,30 +283,31 @@ pub fn read_obj(path: &Path, face_normals: bool) -> Result<TriMesh> {
             continue;
         };
         let args = &toks[1..];
-        let numbers = |n: usize, what: &str| -> Result<Vec<f32>> {
-            if args.len() < n {
-                return Err(Error::input(
-                    path,
-                    Some(Pos { line, col: 1 }),
-                    format!("'{kw}' needs {what}, found {} values", args.len()),
-                ));
-            }
-            args[..n]
-                .iter()
-                .map(|&(col, t)| parse_finite(path, line, col, t))
-                .collect()
-        };
+        let numbers =
+            |n: usize, what: &str, parse: fn(&Path, u32, u32, &str) -> Result<f32>| -> Result<Vec<f32>> {
+                if args.len() < n {
+                    return Err(Error::input(
+                        path,
+                        Some(Pos { line, col: 1 }),
+                        format!("'{kw}' needs {what}, found {} values", args.len()),
+                    ));
+                }
+                args[..n]
+                    .iter()
+                    .map(|&(col, t)| parse(path, line, col, t))
+                    .collect()
+            };
         match kw {
             "v" => {
-                let x = numbers(3, "3 coordinates")?;
+                let x = numbers(3, "3 coordinates", parse_coord)?;
                 pos.push(Vec3::new(x[0], x[1], x[2]));
             }
             "vn" => {
-                let x = numbers(3, "3 coordinates")?;
+                let x = numbers(3, "3 coordinates", parse_finite)?;
                 nor.push(Vec3::new(x[0], x[1], x[2]));
             }
             "vt" => {
-                let x = numbers(1, "at least 1 coordinate")?;
+                let x = numbers(1, "at least 1 coordinate", parse_finite)?;
                 let v = match args.get(1) {
                     Some(&(col, t)) => parse_finite(path, line, col, t)?,
                     None => 0.0,
@@ -530,7 +549,12 @@ fn ply_error(path: &Path, e: ParseError, ascii_lines: bool, element: &str) -> Er
 /// described in the [module docs](self).
 pub fn read_ply(path: &Path, face_normals: bool) -> Result<TriMesh> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let mut reader = Reader::new(&bytes[..]);
+    parse_ply(path, &bytes, face_normals)
+}
+
+/// [`read_ply`] on the file's contents; `path` only names the file in errors.
+pub fn parse_ply(path: &Path, bytes: &[u8], face_normals: bool) -> Result<TriMesh> {
+    let mut reader = Reader::new(bytes);
     let header = Parser::<PlySkip>::new()
         .read_header(&mut reader)
         .map_err(|e| ply_error(path, e, true, ""))?;
@@ -602,6 +626,13 @@ pub fn read_ply(path: &Path, face_normals: bool) -> Result<TriMesh> {
                 path,
                 at(vert_line0, k),
                 format!("vertex {k}: {what} is not finite"),
+            ));
+        }
+        if p.abs().max_element() > MAX_COORD {
+            return Err(Error::input(
+                path,
+                at(vert_line0, k),
+                format!("vertex {k}: position {p} is absurdly large (at most {MAX_COORD:e})"),
             ));
         }
         raw.positions.push(p);

@@ -29,6 +29,10 @@ pub enum Patch {
     },
 }
 
+/// Largest coordinate a mesh may have: beyond it areas and squared distances
+/// overflow `f32` (a triangle 1e19 wide has an infinite area).
+pub const MAX_COORD: f32 = 1e15;
+
 /// A triangle mesh in world space, with the patches it was made from.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct TriMesh {
@@ -180,7 +184,8 @@ impl TriMesh {
         )
     }
 
-    /// Checks the invariants every mesh must hold; returns a description of the first
+    /// Checks the invariants every mesh must hold (indices in range, finite
+    /// coordinates no larger than [`MAX_COORD`]); returns a description of the first
     /// violation. Loaders call this so that bad input becomes an error, not a panic.
     pub fn validate(&self) -> Result<(), String> {
         let nv = self.positions.len();
@@ -195,6 +200,16 @@ impl TriMesh {
         }
         if let Some(p) = self.positions.iter().position(|p| !p.is_finite()) {
             return Err(format!("vertex {p} has a non-finite coordinate"));
+        }
+        if let Some(p) = self
+            .positions
+            .iter()
+            .position(|p| p.abs().max_element() > MAX_COORD)
+        {
+            return Err(format!(
+                "vertex {p} is absurdly far from the origin ({}; at most {MAX_COORD:e} per coordinate)",
+                self.positions[p]
+            ));
         }
         for (t, tri) in self.indices.iter().enumerate() {
             if tri.iter().any(|&i| i as usize >= nv) {

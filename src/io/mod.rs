@@ -11,6 +11,7 @@ use std::io::{Cursor, Write};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
 
 use glam::Vec3;
 
@@ -354,9 +355,21 @@ fn temp_path(path: &Path) -> PathBuf {
     path.with_file_name(tmp)
 }
 
+/// Held while [`write_atomic`] has a temporary file on disk; [`exit_after_writes`]
+/// takes it too, so an interrupt never leaves a temporary file behind.
+static WRITING: Mutex<()> = Mutex::new(());
+
+/// Ends the process with `code` once no [`write_atomic`] is under way (an output
+/// being written is finished and renamed first): the Ctrl-C handler.
+pub fn exit_after_writes(code: i32) -> ! {
+    let _writing = WRITING.lock().unwrap_or_else(|e| e.into_inner());
+    std::process::exit(code)
+}
+
 /// Writes `bytes` to `path` through a temporary file in the same directory, synced
 /// and then renamed over `path`: readers see either the old file or the complete new
-/// one. On error the temporary file is removed.
+/// one. On error the temporary file is removed; an interrupt (see
+/// [`exit_after_writes`]) waits for the rename.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     if path.file_name().is_none() {
         return Err(Error::io(
@@ -378,6 +391,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         ));
     }
     let tmp = temp_path(path);
+    let _writing = WRITING.lock().unwrap_or_else(|e| e.into_inner());
     let result = (|| {
         let mut file = OpenOptions::new()
             .write(true)

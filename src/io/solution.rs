@@ -263,16 +263,34 @@ fn checksum(header: &[u8], payload: &[u8]) -> u32 {
     c.finalize()
 }
 
-/// A whole file: header then `payload`.
-fn encode_file(version: u32, fingerprint: u64, payload: &[u8]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(HEADER_LEN + payload.len());
+/// The header of a file whose payload is `len` bytes, with the checksum left 0.
+fn header(version: u32, fingerprint: u64, len: u64, capacity: usize) -> Vec<u8> {
+    let mut out = Vec::with_capacity(capacity);
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&version.to_le_bytes());
     out.extend_from_slice(&fingerprint.to_le_bytes());
-    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-    let sum = checksum(&out, payload);
-    out.extend_from_slice(&sum.to_le_bytes());
+    out.extend_from_slice(&len.to_le_bytes());
+    out.extend_from_slice(&[0; 4]);
+    out
+}
+
+/// Fills in the checksum of a whole file (header then payload).
+fn seal(file: &mut [u8]) {
+    let sum = checksum(&file[..HEADER_LEN], &file[HEADER_LEN..]);
+    file[CHECKSUM_AT..HEADER_LEN].copy_from_slice(&sum.to_le_bytes());
+}
+
+/// A whole file: header then `payload`.
+#[cfg(test)]
+fn encode_file(version: u32, fingerprint: u64, payload: &[u8]) -> Vec<u8> {
+    let mut out = header(
+        version,
+        fingerprint,
+        payload.len() as u64,
+        HEADER_LEN + payload.len(),
+    );
     out.extend_from_slice(payload);
+    seal(&mut out);
     out
 }
 
@@ -344,21 +362,27 @@ pub fn save(solution: &Solution, scene: &Scene, path: &Path) -> Result<()> {
         vertex_count: solution.mesh.vertices.len() as u64,
         patch_vertex_counts: solution.mesh.patches.iter().map(|p| p.vertex_count).collect(),
     };
-    let bytes = codec(u64::MAX).serialize(&payload).map_err(|e| {
+    // Encoded straight behind the header: a large solution is held in memory once.
+    let failed = |e: bincode::Error| {
         Error::Usage(format!(
             "cannot write '{}': encoding the solution failed: {e}",
             path.display()
         ))
-    })?;
-    let file = encode_file(FORMAT_VERSION, scene_fingerprint(scene), &bytes);
+    };
+    let len = codec(u64::MAX).serialized_size(&payload).map_err(failed)?;
+    let capacity = usize::try_from(len).map_or(0, |l| l.saturating_add(HEADER_LEN));
+    let mut file = header(FORMAT_VERSION, scene_fingerprint(scene), len, capacity);
+    codec(u64::MAX)
+        .serialize_into(&mut file, &payload)
+        .map_err(failed)?;
+    seal(&mut file);
     super::write_atomic(path, &file)
 }
 
 /// Reads the header and at most the declared payload length (plus one byte, to
-/// notice extra data) of the file at `path`.
-fn read_file(path: &Path) -> Result<([u8; HEADER_LEN], Vec<u8>)> {
+/// notice extra data) of `file`, named `path` in errors.
+fn read_file(path: &Path, mut file: impl Read) -> Result<([u8; HEADER_LEN], Vec<u8>)> {
     let bad = |msg: String| Error::input(path, None, msg);
-    let mut file = File::open(path).map_err(|e| Error::io(path, e))?;
     let mut head = Vec::with_capacity(HEADER_LEN);
     (&mut file)
         .take(HEADER_LEN as u64)
@@ -413,8 +437,14 @@ fn read_file(path: &Path) -> Result<([u8; HEADER_LEN], Vec<u8>)> {
 /// Loads a solution for `scene` from `path`: refuses a file that is not a solution
 /// file, of another version, damaged (checksum), or made for another scene.
 pub fn load(path: &Path, scene: &Scene) -> Result<Solution> {
+    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    load_from(path, file, scene)
+}
+
+/// [`load`] from a reader (the file's contents); `path` only names the file in errors.
+pub fn load_from(path: &Path, reader: impl Read, scene: &Scene) -> Result<Solution> {
     let bad = |msg: String| Error::input(path, None, msg);
-    let (head, payload) = read_file(path)?;
+    let (head, payload) = read_file(path, reader)?;
 
     // Checksum.
     let stored = u32::from_le_bytes(head[CHECKSUM_AT..HEADER_LEN].try_into().expect("4 bytes"));

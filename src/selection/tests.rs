@@ -428,3 +428,39 @@ fn norm_needs_every_light_kept_apart() {
     assert!(err.contains("--sources-per-patch 2"), "{err}");
     assert!(select(&s, &sol, Method::Local, &SelectSettings::default(), None).is_ok());
 }
+
+/// A radiant patch's solid angle comes from its flat domain (one or two triangles),
+/// and equals that of its elements, from in front and from the side.
+#[test]
+fn patch_source_solid_angle_from_the_domain_equals_the_elements() {
+    let rho = Vec3::splat(0.5);
+    let sc = scene(
+        vec![
+            (square(-1.0, 1.0, -1.0, 1.0, 0.0, false), rho),
+            (crate::geometry::shapes::rectangle(), rho),
+        ],
+        vec![],
+        &[],
+    );
+    let sol = solve(&sc, &Bvh::build(&sc), &solve_settings(0.2, 4), None);
+    let p = sol.mesh.shape_first_patch[0];
+    let flat = source_triangles(&sc, &sol, SourceId::Patch(p));
+    assert_eq!(flat.len(), 2);
+    let elements: Vec<[Vec3; 3]> = sol
+        .mesh
+        .element_triangles(p)
+        .iter()
+        .map(|t| t.map(|i| sol.mesh.vertices[i as usize].p))
+        .collect();
+    assert!(elements.len() >= 200, "{}", elements.len());
+    for x in [
+        v(0.0, 0.0, 1.0),
+        v(0.3, -0.2, 0.05),
+        v(3.0, 1.0, 2.0),
+        v(0.0, 0.0, -1.0),
+    ] {
+        let (a, b) = (solid_angle(x, &flat), solid_angle(x, &elements));
+        assert!((a - b).abs() <= 1e-4 * b.max(1e-3), "{x}: {a} vs {b}");
+    }
+    assert!(solid_angle(v(0.0, 0.0, 1.0), &flat) > 1.0);
+}

@@ -44,6 +44,16 @@ pub struct Loaded {
 /// Defines override the scene's `<default>`s; a define the scene never declares is a
 /// warning (Mitsuba would refuse it).
 pub fn load(path: &Path, defines: &[(String, String)]) -> Result<Loaded> {
+    load_with(path, None, defines)
+}
+
+/// [`load`] of a scene given as text: `path` names it in errors, and files it refers
+/// to (meshes, includes) are looked for beside `path`.
+pub fn load_str(path: &Path, text: &str, defines: &[(String, String)]) -> Result<Loaded> {
+    load_with(path, Some(text), defines)
+}
+
+fn load_with(path: &Path, text: Option<&str>, defines: &[(String, String)]) -> Result<Loaded> {
     let mut l = Loader::new(path);
     for (k, v) in defines {
         if k.is_empty() || k.contains('$') {
@@ -53,7 +63,10 @@ pub fn load(path: &Path, defines: &[(String, String)]) -> Result<Loaded> {
         }
         l.params.insert(k.clone(), v.clone());
     }
-    l.load_file(path, true)?;
+    match text {
+        Some(text) => l.load_text(path, text, true)?,
+        None => l.load_file(path, true)?,
+    }
     for (k, _) in defines {
         if !l.declared.contains(k) {
             l.warnings.push(format!(
@@ -454,7 +467,11 @@ impl Loader {
 
     fn load_file(&mut self, path: &Path, top: bool) -> Result<()> {
         let text = read_text(path)?;
-        let doc = Document::parse(&text).map_err(|e| {
+        self.load_text(path, &text, top)
+    }
+
+    fn load_text(&mut self, path: &Path, text: &str, top: bool) -> Result<()> {
+        let doc = Document::parse(text).map_err(|e| {
             let p = e.pos();
             let msg = e.to_string().replace(&format!(" at {p}"), "");
             Error::input(
@@ -1183,6 +1200,18 @@ impl Loader {
                 let coarse = level("coarse", 4)?;
                 let fine = level("fine", 8)?;
                 let patches = bezier::read_bpt(&path)?;
+                let tris = bezier::tessellated_triangles(patches.len(), coarse, fine);
+                if tris > bezier::MAX_TESSELLATED_TRIANGLES {
+                    return Err(obj.err_param(
+                        "fine",
+                        format!(
+                            "{} patches at coarse {coarse} x fine {fine} would make {tris} triangles \
+                             (at most {})",
+                            patches.len(),
+                            bezier::MAX_TESSELLATED_TRIANGLES
+                        ),
+                    ));
+                }
                 (
                     bezier::tessellate(&patches, coarse, fine),
                     format!("bezier:{fname}"),

@@ -900,3 +900,20 @@ fn fixture_box_loads_completely() {
     let (lo, hi) = sc.shapes[6].mesh.bounds().unwrap();
     assert!(((lo + hi) / 2.0 - Vec3::new(-0.4, -0.65, -0.2)).length() < 1e-3);
 }
+
+#[test]
+fn text_loads_like_the_file_and_resolves_beside_its_path() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/xml/box.xml");
+    let text = fs::read_to_string(&path).unwrap();
+    let defines = [("res".to_string(), "64".to_string())];
+    let from_file = load(&path, &defines).unwrap();
+    let from_text = load_str(&path, &text, &defines).unwrap();
+    assert_eq!(from_text.scene.shapes.len(), 8);
+    assert_eq!(from_text.scene.shapes, from_file.scene.shapes);
+    assert_eq!(from_text.scene.lights, from_file.scene.lights);
+    // Errors name the given path; the include is looked for beside it.
+    let elsewhere = Path::new("/nonexistent/box.xml");
+    let e = load_str(elsewhere, &text, &defines).unwrap_err().to_string();
+    assert!(e.starts_with("/nonexistent/box.xml:8:24: "), "{e}");
+    assert!(e.contains("/nonexistent/materials.xml"), "{e}");
+}
