@@ -385,13 +385,18 @@ pub fn run(scene: &Scene, plan: &Plan, threads: usize) -> Result<Report> {
     let solve = match &plan.solve {
         None => None,
         Some(st) => {
-            let sol = crate::radiosity::solve(scene, &bvh, st, None);
+            // The best of the repeats, for the scaling too: on a shared or virtual
+            // machine a single run may lose a core for a while.
+            let (solve_s, sol) = best_of(plan.repeats, || crate::radiosity::solve(scene, &bvh, st, None));
+            let solve_1t_s = plan.solve_scaling.then(|| {
+                one.install(|| best_of(plan.repeats, || crate::radiosity::solve(scene, &bvh, st, None)).0)
+            });
             for view in 0..scene.sensors.len() {
-                let (time_s, (samples, shadow_rays)) =
-                    best_of(1, || render_view(scene, &bvh, &sol, view, plan));
+                let render = || render_view(scene, &bvh, &sol, view, plan);
+                let (time_s, (samples, shadow_rays)) = best_of(plan.repeats, render);
                 let time_1t_s = plan
                     .solve_scaling
-                    .then(|| one.install(|| best_of(1, || render_view(scene, &bvh, &sol, view, plan)).0));
+                    .then(|| one.install(|| best_of(plan.repeats, render).0));
                 let sensor = &scene.sensors[view];
                 renders.push(RenderFigures {
                     view,
@@ -403,18 +408,15 @@ pub fn run(scene: &Scene, plan: &Plan, threads: usize) -> Result<Report> {
                     time_1t_s,
                 });
             }
-            let time_1t_s = plan
-                .solve_scaling
-                .then(|| one.install(|| crate::radiosity::solve(scene, &bvh, st, None).stats.time_s));
             let s = sol.stats;
             Some(SolveFigures {
-                time_s: s.time_s,
-                time_1t_s,
+                time_s: solve_s,
+                time_1t_s: solve_1t_s,
                 rays: s.rays,
                 shots: s.light_shots + s.patch_shots,
                 vertices: s.vertices,
-                mrays: if s.time_s > 0.0 {
-                    s.rays as f64 / s.time_s / 1e6
+                mrays: if solve_s > 0.0 {
+                    s.rays as f64 / solve_s / 1e6
                 } else {
                     0.0
                 },
