@@ -203,8 +203,15 @@ pub fn render_adaptive(
     progress: &dyn Fn(&str, u64) -> ProgressBar,
 ) -> AdaptiveOutput {
     let (w, h) = (settings.width, settings.height);
-    let point = tracer.point_sources();
-    let nsrc = tracer.source_count();
+    let ctx = LevelCtx {
+        tracer,
+        camera,
+        refine,
+        point: tracer.point_sources(),
+        nsrc: tracer.source_count(),
+        progress,
+    };
+    let nsrc = ctx.nsrc;
     let mut set = SampleSet {
         width: w,
         height: h,
@@ -243,24 +250,7 @@ pub fn render_adaptive(
         })
         .collect();
     let block_first = set.samples.len() as u32;
-    run_level(
-        tracer,
-        camera,
-        refine,
-        &point,
-        nsrc,
-        &mut set,
-        &mut levels,
-        -1,
-        &tasks,
-        true,
-        progress,
-    );
-    for i in 0..tasks.len() as u32 {
-        let s = block_first + i;
-        let p = set.pixel_of(set.samples[s as usize].pos);
-        set.base[p as usize] = s;
-    }
+    ctx.run_level(&mut set, &mut levels, -1, &tasks, Store::Base);
 
     // Level 0: every pixel without a sample; SIB neighbours are the samples of the
     // four blocks nearest to the pixel's centre.
@@ -294,25 +284,7 @@ pub fn render_adaptive(
             }
         })
         .collect();
-    let level0_first = set.samples.len() as u32;
-    run_level(
-        tracer,
-        camera,
-        refine,
-        &point,
-        nsrc,
-        &mut set,
-        &mut levels,
-        0,
-        &tasks,
-        true,
-        progress,
-    );
-    for i in 0..tasks.len() as u32 {
-        let s = level0_first + i;
-        let p = set.pixel_of(set.samples[s as usize].pos);
-        set.base[p as usize] = s;
-    }
+    ctx.run_level(&mut set, &mut levels, 0, &tasks, Store::Base);
     set.index_pixels();
 
     // Levels 1..: refine where the criteria say.
@@ -387,19 +359,7 @@ pub fn render_adaptive(
                     })
             })
             .collect();
-        run_level(
-            tracer,
-            camera,
-            refine,
-            &point,
-            nsrc,
-            &mut set,
-            &mut levels,
-            level,
-            &tasks,
-            false,
-            progress,
-        );
+        ctx.run_level(&mut set, &mut levels, level, &tasks, Store::No);
         set.index_pixels();
     }
 
@@ -538,99 +498,127 @@ struct Chunk {
     counters: Counters,
 }
 
-/// Takes the samples `tasks` of one level in parallel and appends them to `set` (with
-/// their SIB records if `store`), and the level's counts to `levels`.
-#[allow(clippy::too_many_arguments)]
-fn run_level(
-    tracer: &Tracer,
-    camera: &Camera,
-    refine: &Refine,
-    point: &[bool],
+/// What every level of one render shares.
+struct LevelCtx<'a> {
+    tracer: &'a Tracer<'a>,
+    camera: &'a Camera,
+    refine: &'a Refine,
+    /// Which ray-traced sources are point or spot lights.
+    point: Vec<bool>,
     nsrc: usize,
-    set: &mut SampleSet,
-    levels: &mut Vec<(i32, Counters)>,
-    level: i32,
-    tasks: &[Task],
-    store: bool,
-    progress: &dyn Fn(&str, u64) -> ProgressBar,
-) {
-    let pb = progress(&format!("level {level:>2}"), tasks.len() as u64);
-    let read: &SampleSet = set;
-    let chunks: Vec<Chunk> = tasks
-        .par_chunks(CHUNK)
-        .map(|chunk| {
-            let mut counters = Counters::with_sources(nsrc);
-            let mut samples = Vec::with_capacity(chunk.len());
-            let mut lens = Vec::with_capacity(if store { chunk.len() } else { 0 });
-            let mut entries = Vec::new();
-            let mut record = Vec::new();
-            for t in chunk {
-                let mut ns = [Neighbour {
-                    object: NO_OBJECT,
-                    record: &[],
-                }; 4];
-                let mut k = 0;
-                for &i in t.neighbours.iter().filter(|&&i| i != NONE) {
-                    ns[k] = Neighbour {
-                        object: read.samples[i as usize].object,
-                        record: read.record(i),
-                    };
-                    k += 1;
+    progress: &'a dyn Fn(&str, u64) -> ProgressBar,
+}
+
+/// Whether a level's samples are stored in the SIB.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Store {
+    /// Levels -1 and 0: each sample is its pixel's stored sample, with its record.
+    Base,
+    /// Anti-aliasing levels: the samples read the SIB but store nothing.
+    No,
+}
+
+impl LevelCtx<'_> {
+    /// Takes the samples `tasks` of one level in parallel and appends them to `set`
+    /// (as their pixels' stored samples, with SIB records, if `store` is `Base`), and
+    /// the level's counts to `levels`.
+    fn run_level(
+        &self,
+        set: &mut SampleSet,
+        levels: &mut Vec<(i32, Counters)>,
+        level: i32,
+        tasks: &[Task],
+        store: Store,
+    ) {
+        let (tracer, camera, refine, point, nsrc) =
+            (self.tracer, self.camera, self.refine, &self.point, self.nsrc);
+        let first_sample = set.samples.len() as u32;
+        let store = store == Store::Base;
+        let pb = (self.progress)(&format!("level {level:>2}"), tasks.len() as u64);
+        let read: &SampleSet = set;
+        let chunks: Vec<Chunk> = tasks
+            .par_chunks(CHUNK)
+            .map(|chunk| {
+                let mut counters = Counters::with_sources(nsrc);
+                let mut samples = Vec::with_capacity(chunk.len());
+                let mut lens = Vec::with_capacity(if store { chunk.len() } else { 0 });
+                let mut entries = Vec::new();
+                let mut record = Vec::new();
+                for t in chunk {
+                    let mut ns = [Neighbour {
+                        object: NO_OBJECT,
+                        record: &[],
+                    }; 4];
+                    let mut k = 0;
+                    for &i in t.neighbours.iter().filter(|&&i| i != NONE) {
+                        ns[k] = Neighbour {
+                            object: read.samples[i as usize].object,
+                            record: read.record(i),
+                        };
+                        k += 1;
+                    }
+                    let mut q = SibQuery::new(refine.sib, &ns[..k], &mut record);
+                    let ray = camera.ray(t.pos.x, t.pos.y);
+                    counters.primary_rays += 1;
+                    let before = counters.shadow_rays;
+                    let value =
+                        tracer.radiance_sib(&ray, hash32(t.seed ^ 0x2545_f491), &mut counters, &mut q);
+                    let object = q.object;
+                    let saved = q.saved;
+                    let (point_known, point_lit) = sib::point_bits(q.record, point);
+                    samples.push(Sample {
+                        pos: t.pos,
+                        value,
+                        display: display(value, refine.exposure),
+                        object,
+                        level: level as i8,
+                        point_known,
+                        point_lit,
+                        rays: (counters.shadow_rays - before) as u32,
+                        saved: saved as u32,
+                    });
+                    if store {
+                        lens.push(record.len() as u32);
+                        entries.extend_from_slice(&record);
+                    }
                 }
-                let mut q = SibQuery::new(refine.sib, &ns[..k], &mut record);
-                let ray = camera.ray(t.pos.x, t.pos.y);
-                counters.primary_rays += 1;
-                let before = counters.shadow_rays;
-                let value = tracer.radiance_sib(&ray, hash32(t.seed ^ 0x2545_f491), &mut counters, &mut q);
-                let object = q.object;
-                let saved = q.saved;
-                let (point_known, point_lit) = sib::point_bits(q.record, point);
-                samples.push(Sample {
-                    pos: t.pos,
-                    value,
-                    display: display(value, refine.exposure),
-                    object,
-                    level: level as i8,
-                    point_known,
-                    point_lit,
-                    rays: (counters.shadow_rays - before) as u32,
-                    saved: saved as u32,
-                });
-                if store {
-                    lens.push(record.len() as u32);
-                    entries.extend_from_slice(&record);
+                pb.inc(chunk.len() as u64);
+                Chunk {
+                    samples,
+                    lens,
+                    entries,
+                    counters,
                 }
+            })
+            .collect();
+        pb.finish_and_clear();
+        let mut total = Counters::with_sources(nsrc);
+        for Chunk {
+            samples,
+            lens,
+            entries,
+            counters,
+        } in chunks
+        {
+            set.samples.extend(samples);
+            if store {
+                let mut at = *set.first.last().expect("first has a start");
+                for l in lens {
+                    at += l;
+                    set.first.push(at);
+                }
+                set.entries.extend(entries);
             }
-            pb.inc(chunk.len() as u64);
-            Chunk {
-                samples,
-                lens,
-                entries,
-                counters,
-            }
-        })
-        .collect();
-    pb.finish_and_clear();
-    let mut total = Counters::with_sources(nsrc);
-    for Chunk {
-        samples,
-        lens,
-        entries,
-        counters,
-    } in chunks
-    {
-        set.samples.extend(samples);
-        if store {
-            let mut at = *set.first.last().expect("first has a start");
-            for l in lens {
-                at += l;
-                set.first.push(at);
-            }
-            set.entries.extend(entries);
+            total += counters;
         }
-        total += counters;
+        if store {
+            for s in first_sample..set.samples.len() as u32 {
+                let p = set.pixel_of(set.samples[s as usize].pos);
+                set.base[p as usize] = s;
+            }
+        }
+        levels.push((level, total));
     }
-    levels.push((level, total));
 }
 
 #[cfg(test)]
