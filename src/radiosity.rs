@@ -521,14 +521,16 @@ impl Solver<'_> {
         };
         // Per vertex, in parallel over all receiving vertices (not per patch: one
         // large patch would keep one thread busy while the others wait), then
-        // gathered per patch. The sums per vertex are the same either way.
+        // gathered per patch. The sums per vertex are the same either way. At most 16
+        // vertices per task: the cost of a vertex varies a lot (visible or not, near or
+        // far), and finer tasks balance the threads (paper room: 1.68x -> 1.84x on 2).
         let mesh = &self.mesh;
         let receives =
             |p: usize| Some(p as u32) != skip_patch && mesh.patches[p].reflectance.max_element() > 0.0;
         let per_vertex: Vec<(Rgb, Rgb, u64)> = mesh
             .vertices
             .par_iter()
-            .with_min_len(16)
+            .with_max_len(16)
             .map(|v| {
                 if !receives(v.patch as usize) {
                     return (Vec3::ZERO, Vec3::ZERO, 0);
