@@ -222,6 +222,29 @@ fn best_of<T>(repeats: u32, mut f: impl FnMut() -> T) -> (f64, T) {
     (best, out.expect("at least one run"))
 }
 
+/// The best of `repeats` timings of `f` on the current pool and, with `one`, the best of
+/// as many on that pool, the two runs alternating; and the last result of the former.
+fn best_of_interleaved<T: Send>(
+    repeats: u32,
+    one: Option<&rayon::ThreadPool>,
+    f: impl Fn() -> T + Sync,
+) -> (f64, Option<f64>, T) {
+    let mut best = f64::INFINITY;
+    let mut best_one = one.map(|_| f64::INFINITY);
+    let mut out = None;
+    for _ in 0..repeats.max(1) {
+        let t = Instant::now();
+        out = Some(f());
+        best = best.min(t.elapsed().as_secs_f64());
+        if let (Some(pool), Some(b)) = (one, best_one.as_mut()) {
+            let t = Instant::now();
+            pool.install(&f);
+            *b = b.min(t.elapsed().as_secs_f64());
+        }
+    }
+    (best, best_one, out.expect("at least one run"))
+}
+
 /// Seconds the calling thread has run on a CPU (Linux: /proc/thread-self/schedstat,
 /// in nanoseconds); `None` elsewhere.
 pub fn thread_cpu_s() -> Option<f64> {
@@ -387,16 +410,16 @@ pub fn run(scene: &Scene, plan: &Plan, threads: usize) -> Result<Report> {
         Some(st) => {
             // The best of the repeats, for the scaling too: on a shared or virtual
             // machine a single run may lose a core for a while.
-            let (solve_s, sol) = best_of(plan.repeats, || crate::radiosity::solve(scene, &bvh, st, None));
-            let solve_1t_s = plan.solve_scaling.then(|| {
-                one.install(|| best_of(plan.repeats, || crate::radiosity::solve(scene, &bvh, st, None)).0)
+            // The 1-thread runs alternate with the all-threads runs, so that a slow
+            // spell of the machine falls on both.
+            let one_pool = plan.solve_scaling.then_some(&one);
+            let (solve_s, solve_1t_s, sol) = best_of_interleaved(plan.repeats, one_pool, || {
+                crate::radiosity::solve(scene, &bvh, st, None)
             });
             for view in 0..scene.sensors.len() {
                 let render = || render_view(scene, &bvh, &sol, view, plan);
-                let (time_s, (samples, shadow_rays)) = best_of(plan.repeats, render);
-                let time_1t_s = plan
-                    .solve_scaling
-                    .then(|| one.install(|| best_of(plan.repeats, render).0));
+                let (time_s, time_1t_s, (samples, shadow_rays)) =
+                    best_of_interleaved(plan.repeats, one_pool, render);
                 let sensor = &scene.sensors[view];
                 renders.push(RenderFigures {
                     view,
