@@ -205,6 +205,7 @@ fn trace_closest<A: Accel + ?Sized>(accel: &A, rays: &[Ray]) -> Tally {
 /// [`trace`] on all threads of the current rayon pool, in chunks.
 pub fn trace_parallel<A: Accel + ?Sized>(accel: &A, rays: &[Ray], occlusion: bool) -> Tally {
     rays.par_chunks(1024)
+        .with_max_len(1)
         .map(|c| trace(accel, c, occlusion))
         .reduce(Tally::default, |a, b| a + b)
 }

@@ -460,6 +460,7 @@ pub fn select<'a>(
             };
             criteria = (0..np)
                 .into_par_iter()
+                .with_max_len(64)
                 .map(|p| {
                     sol.lists[p]
                         .iter()

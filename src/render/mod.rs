@@ -172,8 +172,10 @@ fn render_uniform(
     let (w, h) = (settings.width, settings.height);
     let pb = progress("render", h as u64);
     let start = Instant::now();
+    // One row per task (see adaptive.rs: rayon's larger pieces unbalance the threads).
     let rows: Vec<(Vec<FilmSample>, Counters)> = (0..h)
         .into_par_iter()
+        .with_max_len(1)
         .map(|y| {
             let mut counters = Counters::with_sources(tracer.source_count());
             let mut samples = Vec::with_capacity((w * settings.spp) as usize);
