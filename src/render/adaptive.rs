@@ -238,6 +238,7 @@ pub fn render_adaptive(
     // Level -1: one sample per 2 x 2 block, every shadow ray cast.
     let (bw, bh) = (w.div_ceil(2), h.div_ceil(2));
     let tasks: Vec<Task> = (0..bw * bh)
+        .into_par_iter()
         .map(|b| {
             let (bx, by) = (b % bw, b / bw);
             let seed = seed_of(-1, bx, by);
@@ -262,6 +263,7 @@ pub fn render_adaptive(
         }
     };
     let tasks: Vec<Task> = (0..w * h)
+        .into_par_iter()
         .filter(|&p| set.base[p as usize] == NONE)
         .map(|p| {
             let (x, y) = (p % w, p / w);
