@@ -26,6 +26,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::accel::{Accel, Bvh, Ray};
+use crate::render::shading::SurfacePoint;
 use crate::render::{Camera, SampledLight};
 use crate::scene::Scene;
 use crate::{Error, Result};
@@ -97,46 +98,31 @@ pub fn ray_sets(scene: &Scene, accel: &dyn Accel, opts: &Options) -> Result<RayS
     let lights = SampledLight::prepare_all(scene);
     let mut rng = rand_pcg::Pcg32::seed_from_u64(opts.seed);
     let mut next_light = 0;
+    // Secondary rays leave the hits as the renderer's do (SurfacePoint::spawn: tmin 0,
+    // origin nudged off the surface).
     for ray in &sets.camera {
         let Some(hit) = accel.intersect(ray) else {
             continue;
         };
-        let mesh = &scene.shapes[hit.shape as usize].mesh;
-        let [a, b, c] = mesh.triangle(hit.tri as usize);
-        let p = ray.at(hit.t);
-        let mut ng = (b - a).cross(c - a).normalize();
-        if ng.dot(ray.dir) > 0.0 {
-            ng = -ng;
-        }
-        let eps = crate::render::shading::ray_epsilon(p);
-        let origin = p + ng * eps;
+        let sp = SurfacePoint::new(scene, ray, &hit);
         if !lights.is_empty() {
             for _ in 0..opts.shadow_per_hit {
                 let light = &lights[next_light % lights.len()];
                 next_light += 1;
                 let u = Vec2::new(rng.random(), rng.random());
-                let Some(s) = light.sample(origin, u) else {
+                let Some(s) = light.sample(sp.p, u) else {
                     continue;
                 };
-                if s.dir.dot(ng) <= 0.0 {
+                if s.dir.dot(sp.ng) <= 0.0 {
                     continue;
                 }
-                let end = if s.on_surface {
-                    s.dist - 2.0 * crate::render::shading::ray_epsilon(s.point)
-                } else {
-                    s.dist
-                };
-                sets.shadow.push(Ray {
-                    origin,
-                    dir: s.dir,
-                    tmin: 0.0,
-                    tmax: end.max(0.0),
-                });
+                sets.shadow.push(sp.spawn(s.dir, s.shadow_ray_end()));
             }
         }
         for _ in 0..opts.bounce_per_hit {
             let u = Vec2::new(rng.random(), rng.random());
-            sets.incoherent.push(Ray::new(origin, cosine_direction(ng, u)));
+            sets.incoherent
+                .push(sp.spawn(cosine_direction(sp.ng, u), f32::INFINITY));
         }
     }
     Ok(sets)

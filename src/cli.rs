@@ -659,7 +659,7 @@ fn render_json(
         "diffuse_hits": c.diffuse_hits,
         "reflection_rays": c.reflection_rays,
         "shadow_rays_per_hit": c.rays_per_hit(),
-        "non_finite_pixels": out.image.pixels.iter().filter(|p| !p.is_finite()).count(),
+        "non_finite_pixels": out.non_finite_pixels,
         "levels": out.levels,
         "sources": sources,
         "solve": l.solution.as_ref().filter(|_| settings.method != Method::Direct).map(solve_json),
@@ -796,9 +796,11 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
             crate::io::write_image(&out.image, &a.output, a.exposure)
         })?;
         let c = &out.counters;
-        let non_finite = out.image.pixels.iter().filter(|p| !p.is_finite()).count();
-        if non_finite > 0 && !a.quiet {
-            eprintln!("radtrace: warning: {non_finite} pixel(s) are not finite (NaN or infinite)");
+        if out.non_finite_pixels > 0 && !a.quiet {
+            eprintln!(
+                "radtrace: warning: {} pixel(s) are not finite (NaN or infinite)",
+                out.non_finite_pixels
+            );
         }
         let names = source_names(&l.scene, selection.as_ref(), c.sources.len());
         if let (Some(dir), Some(set)) = (&a.sib_images, &out.samples) {
@@ -1020,17 +1022,20 @@ fn cmd_tables(a: TablesArgs) -> Result<()> {
         for (view, runs) in &results {
             let fig = letter(*view);
             let base = runs[0].0.counters.shadow_rays;
-            for (label, k) in [(format!("{fig} fully sampled"), 0), (format!("{fig} local"), 1)] {
+            // A row of Tables 1 and 3: run `k` against the fully sampled run 0.
+            let row = |label: String, k: usize| {
                 let c = &runs[k].0.counters;
-                t1.push(vec![
+                vec![
                     label,
                     c.diffuse_hits.to_string(),
                     c.shadow_rays.to_string(),
                     format!("{:.1}", c.rays_per_hit()),
                     format!("{:.0}", saved(c.shadow_rays, base)),
                     format!("{:.4}", runs[k].1),
-                ]);
-            }
+                ]
+            };
+            t1.push(row(format!("{fig} fully sampled"), 0));
+            t1.push(row(format!("{fig} local"), 1));
             for r in crate::stats::table2_rows(&runs[2].0.levels) {
                 let mut row = vec![format!("{fig} SIB")];
                 row.extend(r);
@@ -1046,20 +1051,8 @@ fn cmd_tables(a: TablesArgs) -> Result<()> {
                 String::new(),
                 format!("{:.0}", saved(c.shadow_rays, base)),
             ]);
-            for (label, k) in [
-                (format!("{fig} fully sampled"), 0),
-                (format!("{fig} local and SIB"), 3),
-            ] {
-                let c = &runs[k].0.counters;
-                t3.push(vec![
-                    label,
-                    c.diffuse_hits.to_string(),
-                    c.shadow_rays.to_string(),
-                    format!("{:.1}", c.rays_per_hit()),
-                    format!("{:.0}", saved(c.shadow_rays, base)),
-                    format!("{:.4}", runs[k].1),
-                ]);
-            }
+            t3.push(row(format!("{fig} fully sampled"), 0));
+            t3.push(row(format!("{fig} local and SIB"), 3));
         }
         let sizes: Vec<String> = results
             .iter()

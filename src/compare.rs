@@ -24,11 +24,6 @@ pub struct Comparison {
     pub rmse: f32,
 }
 
-/// The number of pixels with at least one non-finite channel.
-pub fn count_non_finite(img: &Image) -> usize {
-    img.pixels.iter().filter(|p| !p.is_finite()).count()
-}
-
 /// Root mean square difference over all pixels and the three channels (f64 sums).
 fn rmse(a: &[Vec3], b: &[Vec3]) -> f32 {
     if a.is_empty() {
@@ -55,7 +50,7 @@ fn check_image(img: &Image, which: &str) -> Result<()> {
             img.pixels.len()
         )));
     }
-    let bad = count_non_finite(img);
+    let bad = img.non_finite_pixels();
     if bad > 0 {
         return Err(Error::Usage(format!(
             "cannot compare: {which} image has {bad} non-finite pixel{}",
@@ -121,7 +116,7 @@ pub fn compare_files(reference: &Path, test: &Path, error_map: Option<&Path>) ->
     let ref_img = read_image(reference)?;
     let test_img = read_image(test)?;
     for (img, path) in [(&ref_img, reference), (&test_img, test)] {
-        let bad = count_non_finite(img);
+        let bad = img.non_finite_pixels();
         if bad > 0 {
             return Err(Error::input(
                 path,

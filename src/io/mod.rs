@@ -37,6 +37,11 @@ impl Image {
             pixels: vec![Vec3::ZERO; (width * height) as usize],
         }
     }
+
+    /// The number of pixels with at least one non-finite channel.
+    pub fn non_finite_pixels(&self) -> usize {
+        self.pixels.iter().filter(|p| !p.is_finite()).count()
+    }
 }
 
 /// The largest image [`read_image`] accepts, in pixels (guards against garbage

@@ -255,13 +255,6 @@ pub fn render_adaptive(
 
     // Level 0: every pixel without a sample; SIB neighbours are the samples of the
     // four blocks nearest to the pixel's centre.
-    let block_sample = |bx: i64, by: i64| -> u32 {
-        if bx < 0 || by < 0 || bx >= bw as i64 || by >= bh as i64 {
-            NONE
-        } else {
-            block_first + (by as u32 * bw + bx as u32)
-        }
-    };
     let tasks: Vec<Task> = (0..w * h)
         .into_par_iter()
         .filter(|&p| set.base[p as usize] == NONE)
@@ -270,19 +263,10 @@ pub fn render_adaptive(
             let seed = seed_of(0, x, y);
             // Blocks whose centres (2 b + 1) bracket the pixel's centre (x + 0.5).
             let (bx, by) = ((x as i64 - 1).div_euclid(2), (y as i64 - 1).div_euclid(2));
-            let mut nb = [NONE; 4];
-            let mut k = 0;
-            for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                let s = block_sample(bx + dx, by + dy);
-                if s != NONE {
-                    nb[k] = s;
-                    k += 1;
-                }
-            }
             Task {
                 pos: in_cell(Vec2::new(x as f32, y as f32), Vec2::ONE, jitter(seed)),
                 seed,
-                neighbours: nb,
+                neighbours: four_from(bx, by, bw, bh, |bx, by| block_first + by * bw + bx),
             }
         })
         .collect();
@@ -293,37 +277,24 @@ pub fn render_adaptive(
     let mut marked: Vec<u32> = Vec::new();
     for level in 1..=refine.max_level as i32 {
         marked = if level == 1 {
+            // Each pixel's stored sample against those of its eight neighbours.
+            let stored = |x: u32, y: u32| &set.samples[set.base[(y * w + x) as usize] as usize];
             (0..w * h)
                 .into_par_iter()
                 .filter(|&p| {
-                    let a = &set.samples[set.base[p as usize] as usize];
-                    let (x, y) = ((p % w) as i64, (p / w) as i64);
-                    (-1..=1i64).any(|dy| {
-                        (-1..=1i64).any(|dx| {
-                            let (nx, ny) = (x + dx, y + dy);
-                            (dx, dy) != (0, 0)
-                                && nx >= 0
-                                && ny >= 0
-                                && nx < w as i64
-                                && ny < h as i64
-                                && differ(
-                                    [
-                                        a,
-                                        &set.samples[set.base[(ny as u32 * w + nx as u32) as usize] as usize],
-                                    ],
-                                    refine,
-                                )
-                        })
+                    let (x, y) = (p % w, p / w);
+                    let a = stored(x, y);
+                    (y.saturating_sub(1)..=(y + 1).min(h - 1)).any(|ny| {
+                        (x.saturating_sub(1)..=(x + 1).min(w - 1))
+                            .any(|nx| (nx, ny) != (x, y) && differ([a, stored(nx, ny)], refine))
                     })
                 })
                 .collect()
         } else {
+            // The samples inside each pixel refined at the level before.
             marked
                 .into_par_iter()
-                .filter(|&p| {
-                    let s: Vec<&Sample> = set.pixel(p).iter().map(|&i| &set.samples[i as usize]).collect();
-                    differ(s, refine)
-                })
+                .filter(|&p| differ(set.pixel(p).iter().map(|&i| &set.samples[i as usize]), refine))
                 .collect()
         };
         if marked.is_empty() {
@@ -455,12 +426,20 @@ fn in_cell(origin: Vec2, size: Vec2, jitter: Vec2) -> Vec2 {
 /// The stored samples of the (up to) four pixels whose centres surround `pos`.
 fn nearest_stored(set: &SampleSet, pos: Vec2) -> [u32; 4] {
     let (x0, y0) = ((pos.x - 0.5).floor() as i64, (pos.y - 0.5).floor() as i64);
+    four_from(x0, y0, set.width, set.height, |x, y| {
+        set.base[(y * set.width + x) as usize]
+    })
+}
+
+/// `at(x, y)` of the cells `(x0..=x0 + 1, y0..=y0 + 1)` inside a `w` x `h` grid, packed
+/// at the front; the rest [`NONE`].
+fn four_from(x0: i64, y0: i64, w: u32, h: u32, at: impl Fn(u32, u32) -> u32) -> [u32; 4] {
     let mut nb = [NONE; 4];
     let mut k = 0;
     for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
         let (x, y) = (x0 + dx, y0 + dy);
-        if x >= 0 && y >= 0 && x < set.width as i64 && y < set.height as i64 {
-            nb[k] = set.base[(y as u32 * set.width + x as u32) as usize];
+        if x >= 0 && y >= 0 && x < w as i64 && y < h as i64 {
+            nb[k] = at(x as u32, y as u32);
             k += 1;
         }
     }
@@ -567,11 +546,10 @@ impl LevelCtx<'_> {
                     let mut q = SibQuery::new(refine.sib, &ns[..k], &mut record);
                     let ray = camera.ray(t.pos.x, t.pos.y);
                     counters.primary_rays += 1;
-                    let before = counters.shadow_rays;
+                    let (cast_before, saved_before) = (counters.shadow_rays, counters.shadow_rays_saved);
                     let value =
                         tracer.radiance_sib(&ray, hash32(t.seed ^ 0x2545_f491), &mut counters, &mut q);
                     let object = q.object;
-                    let saved = q.saved;
                     let (point_known, point_lit) = sib::point_bits(q.record, point);
                     samples.push(Sample {
                         pos: t.pos,
@@ -581,8 +559,8 @@ impl LevelCtx<'_> {
                         level: level as i8,
                         point_known,
                         point_lit,
-                        rays: (counters.shadow_rays - before) as u32,
-                        saved: saved as u32,
+                        rays: (counters.shadow_rays - cast_before) as u32,
+                        saved: (counters.shadow_rays_saved - saved_before) as u32,
                     });
                     if store {
                         lens.push(record.len() as u32);

@@ -31,6 +31,18 @@ pub struct LightSample {
     pub on_surface: bool,
 }
 
+impl LightSample {
+    /// Where a shadow ray to the light point ends, from the receiver: short of a
+    /// surface source, so that the source itself does not occlude.
+    pub fn shadow_ray_end(&self) -> f32 {
+        if self.on_surface {
+            self.dist * (1.0 - 1e-4)
+        } else {
+            self.dist
+        }
+    }
+}
+
 /// Triangles of an emitting shape with an area table for uniform sampling.
 #[derive(Debug, Clone)]
 pub struct AreaEmitter {

@@ -113,6 +113,8 @@ pub struct Output {
     pub levels: Vec<LevelStats>,
     /// The adaptive sampler's samples and shadow image buffer.
     pub samples: Option<SampleSet>,
+    /// Pixels of the image that are NaN or infinite (0 unless something is wrong).
+    pub non_finite_pixels: usize,
     /// Seconds spent tracing and shading.
     pub trace_s: f64,
     /// Seconds spent reconstructing pixels.
@@ -150,6 +152,7 @@ pub fn render(
             let start = Instant::now();
             let image = out.set.reconstruct(settings.filter);
             Ok(Output {
+                non_finite_pixels: image.non_finite_pixels(),
                 image,
                 counters: out.counters,
                 levels: out.levels,
@@ -210,6 +213,7 @@ fn render_uniform(
     let start = Instant::now();
     let image = SampleBuffer::from_rows(w, h, sample_rows).reconstruct(settings.filter);
     Output {
+        non_finite_pixels: image.non_finite_pixels(),
         image,
         counters,
         levels: Vec::new(),

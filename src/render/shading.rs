@@ -308,12 +308,7 @@ impl<'a> Tracer<'a> {
                 }
                 None => {
                     cast += 1;
-                    let tmax = if s.on_surface {
-                        s.dist * (1.0 - 1e-4)
-                    } else {
-                        s.dist
-                    };
-                    !self.accel.occluded(&sp.spawn(s.dir, tmax))
+                    !self.accel.occluded(&sp.spawn(s.dir, s.shadow_ray_end()))
                 }
             };
             if let Some(q) = sib.as_deref_mut() {
@@ -326,9 +321,6 @@ impl<'a> Tracer<'a> {
         }
         counters.shadow_rays += cast;
         counters.shadow_rays_saved += saved;
-        if let Some(q) = sib {
-            q.saved += saved;
-        }
         if let Some(c) = counters.sources.get_mut(li) {
             c.hits += 1;
             c.shadow_rays += cast;

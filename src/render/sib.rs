@@ -135,8 +135,6 @@ pub struct SibQuery<'a> {
     pub record: &'a mut Vec<Entry>,
     /// Set by the shading: the object the primary ray hit ([`NO_OBJECT`] if none).
     pub object: u32,
-    /// Set by the shading: shadow rays not cast because the neighbours agreed.
-    pub saved: u64,
 }
 
 impl<'a> SibQuery<'a> {
@@ -148,7 +146,6 @@ impl<'a> SibQuery<'a> {
             neighbours,
             record,
             object: NO_OBJECT,
-            saved: 0,
         }
     }
 
