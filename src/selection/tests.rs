@@ -1,7 +1,7 @@
 use super::*;
 use crate::accel::Bvh;
 use crate::radiosity::{solve, SolveSettings};
-use crate::render::{render, Filter, Settings};
+use crate::render::{Filter, Output, Settings};
 use crate::testutil::{looking, quad, scene};
 use std::f32::consts::PI;
 
@@ -187,6 +187,11 @@ fn room() -> Scene {
     s
 }
 
+/// Renders without progress bars.
+fn draw(s: &Scene, bvh: &Bvh, st: &Settings, sel: Option<&Selection>) -> Output {
+    crate::render::render(s, bvh, st, sel, &crate::render::no_progress).unwrap()
+}
+
 fn settings(method: Method) -> Settings {
     Settings {
         method,
@@ -222,7 +227,7 @@ fn no_light_is_counted_twice() {
     let mut means = Vec::new();
     for m in [Method::Twopass, Method::Norm, Method::Local, Method::Global] {
         let sel = select(&s, &sol, m, &st, None).unwrap();
-        let out = render(&s, &bvh, &settings(m), Some(&sel), &crate::render::no_progress).unwrap();
+        let out = draw(&s, &bvh, &settings(m), Some(&sel));
         means.push((m, image_mean(&out.image), out.counters.shadow_rays));
     }
     let norm = means[1].1;
@@ -237,14 +242,7 @@ fn no_light_is_counted_twice() {
     assert!(means.iter().all(|&(_, _, r)| r <= means[1].2), "{means:?}");
     // Norm = direct light by rays + indirect light from the mesh (a closed box of
     // reflectance 0.4..0.6 reflects a lot: more than the direct light).
-    let direct = render(
-        &s,
-        &bvh,
-        &settings(Method::Direct),
-        None,
-        &crate::render::no_progress,
-    )
-    .unwrap();
+    let direct = draw(&s, &bvh, &settings(Method::Direct), None);
     let d = image_mean(&direct.image);
     assert!(1.5 * d < norm && norm < 5.0 * d, "direct {d} norm {norm}");
 }
@@ -293,22 +291,8 @@ fn norm_and_local_agree_where_every_source_is_selected() {
     };
     let norm_sel = select(&s, &sol, Method::Norm, &all, None).unwrap();
     let local_sel = select(&s, &sol, Method::Local, &all, None).unwrap();
-    let norm = render(
-        &s,
-        &bvh,
-        &settings(Method::Norm),
-        Some(&norm_sel),
-        &crate::render::no_progress,
-    )
-    .unwrap();
-    let local = render(
-        &s,
-        &bvh,
-        &settings(Method::Local),
-        Some(&local_sel),
-        &crate::render::no_progress,
-    )
-    .unwrap();
+    let norm = draw(&s, &bvh, &settings(Method::Norm), Some(&norm_sel));
+    let local = draw(&s, &bvh, &settings(Method::Local), Some(&local_sel));
     // Every receiving patch lists both lights, so both methods pick both everywhere.
     for (p, mp) in sol.mesh.patches.iter().enumerate() {
         if mp.reflectance.max_element() > 0.0 && !sol.lists[p].is_empty() {
@@ -359,15 +343,8 @@ fn a_selected_radiant_patch_gives_the_light_it_stored() {
     );
     let mut st = settings(Method::Local);
     st.spp = 16;
-    let a = render(
-        &s,
-        &bvh,
-        &settings(Method::Twopass),
-        Some(&twopass),
-        &crate::render::no_progress,
-    )
-    .unwrap();
-    let b = render(&s, &bvh, &st, Some(&local), &crate::render::no_progress).unwrap();
+    let a = draw(&s, &bvh, &settings(Method::Twopass), Some(&twopass));
+    let b = draw(&s, &bvh, &st, Some(&local));
     let (ma, mb) = (image_mean(&a.image), image_mean(&b.image));
     assert!((ma - mb).abs() < 0.03 * ma, "twopass {ma} vs all selected {mb}");
     let patch_rays: u64 = b.counters.sources[s.lights.len()..]
