@@ -10,7 +10,7 @@ use std::sync::OnceLock;
 use divan::counter::ItemsCount;
 use divan::Bencher;
 use radtrace::accel::Bvh;
-use radtrace::bench::{ray_sets, trace, Options, RaySets};
+use radtrace::experiments::bench::{ray_sets, trace, Options, RaySets};
 use radtrace::scene::{xml, Scene};
 
 fn main() {

@@ -9,6 +9,7 @@ use serde_json::json;
 
 use crate::accel::Bvh;
 use crate::io::solution;
+use crate::progress::Progress;
 use crate::radiosity::{self, Solution, SolveSettings};
 use crate::render::{self, Filter, Method, Refine, Sampler, Settings};
 use crate::scene::{xml, Light, Scene};
@@ -185,6 +186,44 @@ impl SelectArgs {
         })
     }
 }
+
+/// Implements clap's `ValueEnum` for a core type from its `name()`, so that clap
+/// stays in the CLI: `value_enum!(Type { Variant => "help", ... })`.
+macro_rules! value_enum {
+    ($t:ident { $($v:ident => $help:literal),+ $(,)? }) => {
+        impl clap::ValueEnum for $t {
+            fn value_variants<'a>() -> &'a [Self] {
+                &[$($t::$v),+]
+            }
+            fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+                let help = match self {
+                    $($t::$v => $help),+
+                };
+                Some(clap::builder::PossibleValue::new(self.name()).help(help))
+            }
+        }
+    };
+}
+
+value_enum!(Method {
+    Direct => "Exact direct light: shadow rays to every light at every diffuse hit; no indirect light",
+    Twopass => "Standard two-pass radiosity: shading from the radiosity mesh alone (Fig. 7)",
+    Norm => "Radiosity for indirect light, every light ray traced at fixed counts (Fig. 8)",
+    Local => "Per-patch source selection with the five criteria of Sect. 3 (Fig. 9)",
+    Global => "The --global-sources strongest sources ray traced everywhere",
+});
+value_enum!(Sampler {
+    Adaptive => "The paper's adaptive refinement with the shadow image buffer",
+    Uniform => "--spp jittered samples in every pixel, every shadow ray cast",
+});
+value_enum!(Filter {
+    Box => "Equal weights for the samples inside the pixel's square (the paper's)",
+    Gaussian => "Mitsuba's Gaussian: stddev 0.5 px, radius 2 px",
+});
+value_enum!(SelectPer {
+    Patch => "Each patch chooses its own sources",
+    Object => "All patches of an object share one choice (paper Sect. 3)",
+});
 
 /// On or off.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -509,19 +548,59 @@ fn load_scene(args: &SceneArgs, quiet: bool) -> Result<Scene> {
     Ok(loaded.scene)
 }
 
-fn progress_bar(len: u64, label: &str, quiet: bool) -> ProgressBar {
-    let pb = if quiet {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr())
-    };
-    pb.set_style(
-        ProgressStyle::with_template("{prefix:>8} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
-    pb.set_prefix(label.to_string());
-    pb
+/// Progress drawn on stderr by indicatif, one bar per stage ([`Progress`]); nothing
+/// when quiet.
+struct Bars {
+    quiet: bool,
+    bar: std::sync::Mutex<Option<ProgressBar>>,
+}
+
+impl Bars {
+    fn new(quiet: bool) -> Self {
+        Bars {
+            quiet,
+            bar: std::sync::Mutex::new(None),
+        }
+    }
+
+    fn with_bar(&self, f: impl FnOnce(&ProgressBar)) {
+        if let Some(pb) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
+            f(pb);
+        }
+    }
+}
+
+impl Progress for Bars {
+    fn start(&self, label: &str, total: u64) {
+        let pb = if self.quiet {
+            ProgressBar::hidden()
+        } else {
+            ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr())
+        };
+        pb.set_style(
+            ProgressStyle::with_template("{prefix:>8} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}")
+                .expect("valid template")
+                .progress_chars("=> "),
+        );
+        pb.set_prefix(label.to_string());
+        if let Some(old) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).replace(pb) {
+            old.finish_and_clear();
+        }
+    }
+
+    fn advance(&self, units: u64) {
+        self.with_bar(|pb| pb.inc(units));
+    }
+
+    fn set(&self, done: u64) {
+        self.with_bar(|pb| pb.set_position(done));
+    }
+
+    fn finish(&self) {
+        if let Some(pb) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).take() {
+            pb.finish_and_clear();
+        }
+    }
 }
 
 /// A loaded scene with its BVH and (for methods other than `direct`) its radiosity
@@ -568,7 +647,7 @@ fn render_view<'a>(
     t: &mut Timings,
 ) -> Result<(render::Output, Option<Selection<'a>>)> {
     let sensor = l.scene.sensor(settings.view)?;
-    let camera = render::Camera::new(sensor, settings.width, settings.height);
+    let camera = crate::camera::Camera::new(sensor, settings.width, settings.height);
     let selection = match (&l.solution, settings.method) {
         (_, Method::Direct) | (None, _) => None,
         (Some(sol), method) => {
@@ -583,8 +662,7 @@ fn render_view<'a>(
             print_selection_summary(sel);
         }
     }
-    let bars = |label: &str, n: u64| progress_bar(n, label, quiet);
-    let out = render::render(&l.scene, &l.bvh, settings, selection.as_ref(), &bars)?;
+    let out = render::render(&l.scene, &l.bvh, settings, selection.as_ref(), &Bars::new(quiet))?;
     t.add("render", out.trace_s);
     t.add("reconstruct", out.reconstruct_s);
     Ok((out, selection))
@@ -770,9 +848,9 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
             .settings(&l.scene, a.view, a.method, sampler, a.spp, refine)?;
         let (out, selection) = render_view(&l, &settings, &select_settings, a.quiet, &mut t)?;
         if let (Some(path), Some(sel)) = (&a.selection_map, &selection) {
-            let camera = render::Camera::new(l.scene.sensor(a.view)?, settings.width, settings.height);
+            let camera = crate::camera::Camera::new(l.scene.sensor(a.view)?, settings.width, settings.height);
             let img = t.time("selection_map", || {
-                selection::selection_map(&l.scene, &l.bvh, &camera, sel, settings.width, settings.height)
+                render::debug::selection_map(&l.scene, &l.bvh, &camera, sel, settings.width, settings.height)
             });
             crate::io::write_image(&img, path, 0.0)?;
             if !a.quiet {
@@ -781,7 +859,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
                     path.display()
                 );
                 for i in 0..sel.sources.len().min(16) {
-                    let c = selection::source_colour(i);
+                    let c = render::debug::source_colour(i);
                     eprintln!(
                         "  {:<28} rgb({:.0}, {:.0}, {:.0})",
                         sel.source_name(&l.scene, i),
@@ -1215,9 +1293,7 @@ fn read_baseline(path: &Path) -> Result<crate::stats::Baseline> {
 
 /// Runs pass 1 with a progress bar.
 fn run_solve(scene: &Scene, bvh: &Bvh, st: &SolveSettings, quiet: bool) -> Solution {
-    let pb = progress_bar(1000, "solve", quiet);
-    let sol = radiosity::solve(scene, bvh, st, Some(&pb));
-    pb.finish_and_clear();
+    let sol = radiosity::solve(scene, bvh, st, &Bars::new(quiet));
     if !quiet {
         let s = &sol.stats;
         eprintln!(
@@ -1381,8 +1457,8 @@ fn cmd_bench(a: BenchArgs) -> Result<()> {
     with_threads(a.threads, |threads| {
         let scene = load_scene(&a.scene, a.quiet)?;
         let sensor = scene.sensor(a.view)?;
-        let plan = crate::bench::Plan {
-            options: crate::bench::Options {
+        let plan = crate::experiments::bench::Plan {
+            options: crate::experiments::bench::Options {
                 view: a.view,
                 width: a.width.unwrap_or(sensor.width),
                 height: a.height.unwrap_or(sensor.height),
@@ -1397,14 +1473,14 @@ fn cmd_bench(a: BenchArgs) -> Result<()> {
             solve_scaling: a.solve_scaling,
             dump: a.dump.clone(),
         };
-        let report = crate::bench::run(&scene, &plan, threads)?;
+        let report = crate::experiments::bench::run(&scene, &plan, threads)?;
         if a.json {
             println!(
                 "{}",
                 serde_json::to_string_pretty(&report).expect("report serialises")
             );
         } else {
-            print!("{}", crate::bench::table(&report));
+            print!("{}", crate::experiments::bench::table(&report));
         }
         Ok(())
     })

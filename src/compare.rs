@@ -12,7 +12,8 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use crate::io::{read_image, srgb_decode, to_srgb8, write_image, Image};
+use crate::image::{srgb_decode, to_srgb8, Image};
+use crate::io::{read_image, write_image};
 use crate::{Error, Result};
 
 /// The result of comparing two images.

@@ -886,7 +886,7 @@ mod tests {
     /// angle as its elements.
     #[test]
     fn outline_triangles_stand_for_the_elements() {
-        use crate::selection::triangle_solid_angle;
+        use crate::geometry::triangle_solid_angle;
         let sa = |m: &RadiosityMesh, tris: &[[u32; 3]], x: Vec3| -> f32 {
             tris.iter()
                 .map(|t| triangle_solid_angle(x, &t.map(|i| m.vertices[i as usize].p)))

@@ -18,13 +18,13 @@ use std::collections::BTreeSet;
 use std::time::Instant;
 
 use glam::{Vec2, Vec3};
-use indicatif::ProgressBar;
 use rayon::prelude::*;
 
 use crate::accel::{Accel, Ray};
+use crate::emitters::{light_power, SampledLight};
+use crate::interaction::ray_epsilon;
 use crate::mesh::{MeshVertex, RadiosityMesh};
-use crate::render::lights::SampledLight;
-use crate::render::shading::ray_epsilon;
+use crate::progress::Progress;
 use crate::scene::{Light, Rgb, Scene};
 
 /// What shot light: a light source of the scene or a radiant patch of the mesh.
@@ -232,44 +232,12 @@ fn mean(c: Rgb) -> f32 {
     (c.x + c.y + c.z) / 3.0
 }
 
-/// Radiant power of a light (mean over RGB).
-pub fn light_power(scene: &Scene, light: &Light) -> f64 {
-    match *light {
-        Light::Point { intensity, .. } => 4.0 * std::f64::consts::PI * mean(intensity) as f64,
-        Light::Spot {
-            intensity,
-            cutoff_angle,
-            beam_width,
-            ..
-        } => {
-            // I * integral of the falloff over the sphere.
-            let beam = beam_width.min(cutoff_angle) as f64;
-            let cut = cutoff_angle as f64;
-            let n = 2000;
-            let mut sum = 0.0;
-            for k in 0..n {
-                let th = (k as f64 + 0.5) / n as f64 * cut;
-                let f = if th <= beam {
-                    1.0
-                } else {
-                    (cut - th) / (cut - beam)
-                };
-                sum += f * th.sin() * cut / n as f64;
-            }
-            2.0 * std::f64::consts::PI * sum * mean(intensity) as f64
-        }
-        Light::Area { shape, radiance } => {
-            std::f64::consts::PI * mean(radiance) as f64 * scene.shapes[shape as usize].mesh.area() as f64
-        }
-    }
-}
-
-/// Runs pass 1. `progress` (if given, length 1000) shows the shot fraction of power.
+/// Runs pass 1. `progress` hears the shot fraction of power, in thousandths.
 pub fn solve(
     scene: &Scene,
     accel: &dyn Accel,
     settings: &SolveSettings,
-    progress: Option<&ProgressBar>,
+    progress: &dyn Progress,
 ) -> Solution {
     solve_traced(scene, accel, settings, progress).0
 }
@@ -280,11 +248,12 @@ pub(crate) fn solve_traced(
     scene: &Scene,
     accel: &dyn Accel,
     settings: &SolveSettings,
-    progress: Option<&ProgressBar>,
+    progress: &dyn Progress,
 ) -> (Solution, Vec<BTreeSet<SourceId>>) {
     let start = Instant::now();
     let mesh = RadiosityMesh::build(scene, settings.mesh_size);
     let nv = mesh.vertices.len();
+    progress.start("solve", 1000);
     let mut s = Solver {
         scene,
         accel,
@@ -319,9 +288,7 @@ pub(crate) fn solve_traced(
     loop {
         let total: f64 = patch_power.iter().sum();
         s.stats.residual = if emitted > 0.0 { total / emitted } else { 0.0 };
-        if let Some(pb) = progress {
-            pb.set_position(((1.0 - s.stats.residual).clamp(0.0, 1.0) * 1000.0) as u64);
-        }
+        progress.set(((1.0 - s.stats.residual).clamp(0.0, 1.0) * 1000.0) as u64);
         // `!(>)`: a NaN residual (which valid scenes cannot give) stops too.
         if !(s.stats.residual > settings.tolerance as f64) || s.stats.patch_shots >= settings.max_shots as u64
         {
@@ -345,6 +312,7 @@ pub(crate) fn solve_traced(
             patch_power[p] = s.unshot_power(p);
         }
     }
+    progress.finish();
     s.stats.time_s = start.elapsed().as_secs_f64();
     let solution = Solution {
         mesh: s.mesh,
@@ -384,7 +352,7 @@ impl Solver<'_> {
     }
 
     fn jitter(&self, shot: u64) -> impl Fn(u32) -> Vec2 {
-        let seed = crate::render::fold32(crate::render::splitmix64(
+        let seed = crate::sampling::fold32(crate::sampling::splitmix64(
             self.settings.seed ^ shot.wrapping_mul(0x9E37_79B9_7F4A_7C15),
         ));
         move |k| Vec2::new(sobol_burley::sample(k, 0, seed), sobol_burley::sample(k, 1, seed))
@@ -638,6 +606,7 @@ impl Solver<'_> {
 mod tests {
     use super::*;
     use crate::accel::Bvh;
+    use crate::progress::Silent;
     use crate::testutil::{box_inside, quad, scene};
     use std::f32::consts::PI;
 
@@ -672,7 +641,7 @@ mod tests {
             vec![],
             &[(1, Vec3::splat(1.0 / PI))],
         );
-        let sol = solve(&s, &Bvh::build(&s), &settings(0.05, 1024, 0), None);
+        let sol = solve(&s, &Bvh::build(&s), &settings(0.05, 1024, 0), &Silent);
         patch_mean(&sol, &sol.total(), 0)
     }
 
@@ -729,7 +698,7 @@ mod tests {
         );
         let mut st = settings(0.1, 64, 2000);
         st.tolerance = 1e-3;
-        let sol = solve(&s, &Bvh::build(&s), &st, None);
+        let sol = solve(&s, &Bvh::build(&s), &st, &Silent);
         let total = sol.total();
         let expect = rho * e / (1.0 - rho);
         for p in 0..6 {
@@ -755,7 +724,7 @@ mod tests {
         );
         let mut st = settings(0.1, 32, 300);
         st.tolerance = 0.02;
-        let sol = solve(&s, &Bvh::build(&s), &st, None);
+        let sol = solve(&s, &Bvh::build(&s), &st, &Silent);
         let total = sol.total();
         let absorbed: f64 = sol
             .mesh
@@ -804,10 +773,10 @@ mod tests {
         let bvh = Bvh::build(&s);
         let mut st = settings(0.2, 16, 60);
         st.sources_per_patch = 0;
-        let plain = solve(&s, &bvh, &st, None);
+        let plain = solve(&s, &bvh, &st, &Silent);
         assert!(plain.lists.iter().all(|l| l.is_empty()));
         st.sources_per_patch = 2;
-        let (sep, folded) = solve_traced(&s, &bvh, &st, None);
+        let (sep, folded) = solve_traced(&s, &bvh, &st, &Silent);
         assert!(
             sep.lists.iter().any(|l| l.len() == 2),
             "some patch keeps two sources"
@@ -875,7 +844,7 @@ mod tests {
         let bvh = Bvh::build(&s);
         let mut st = settings(0.25, 16, 5);
         st.sources_per_patch = 1;
-        let (sol, folded) = solve_traced(&s, &bvh, &st, None);
+        let (sol, folded) = solve_traced(&s, &bvh, &st, &Silent);
         let floor_list = &sol.lists[0];
         assert_eq!(floor_list.len(), 1);
         assert_eq!(
@@ -910,12 +879,12 @@ mod tests {
         );
         let bvh = Bvh::build(&s);
         let st = settings(0.25, 8, 30);
-        let a = solve(&s, &bvh, &st, None);
+        let a = solve(&s, &bvh, &st, &Silent);
         let b = rayon::ThreadPoolBuilder::new()
             .num_threads(1)
             .build()
             .unwrap()
-            .install(|| solve(&s, &bvh, &st, None));
+            .install(|| solve(&s, &bvh, &st, &Silent));
         assert_eq!(a.general, b.general);
         assert_eq!(a.lists, b.lists);
     }

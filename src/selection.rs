@@ -24,16 +24,57 @@ use std::collections::BTreeMap;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::accel::Accel;
-use crate::io::Image;
-use crate::radiosity::{light_power, ListEntry, Solution, SourceId};
-use crate::render::lights::{AreaEmitter, SampledLight};
-use crate::render::{Camera, Method};
+use crate::camera::Camera;
+use crate::emitters::light_power;
+use crate::emitters::{AreaEmitter, SampledLight};
+use crate::geometry::triangle_solid_angle;
+use crate::radiosity::{ListEntry, Solution, SourceId};
 use crate::scene::{Light, Rgb, Scene};
 use crate::{Error, Result};
 
+/// How the direct light is computed (the paper's renderers as modes of one code).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// Exact direct light: shadow rays to every light source at every diffuse hit;
+    /// no indirect light.
+    #[default]
+    Direct,
+    /// Standard two-pass radiosity: shading from the radiosity mesh alone (Fig. 7).
+    Twopass,
+    /// Radiosity for indirect light, every light source ray traced at fixed counts:
+    /// the fully sampled "norm" picture (Fig. 8).
+    Norm,
+    /// Per-patch source selection with the five criteria of Sect. 3 (Fig. 9).
+    Local,
+    /// The `--global-sources` strongest sources ray traced everywhere.
+    Global,
+}
+
+impl Method {
+    /// Every method, in the order of the paper's figures.
+    pub const ALL: [Method; 5] = [
+        Method::Direct,
+        Method::Twopass,
+        Method::Norm,
+        Method::Local,
+        Method::Global,
+    ];
+
+    /// The name used on the command line and in the statistics.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Direct => "direct",
+            Method::Twopass => "twopass",
+            Method::Norm => "norm",
+            Method::Local => "local",
+            Method::Global => "global",
+        }
+    }
+}
+
 /// The unit a local selection is made for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum SelectPer {
     /// Each patch chooses its own sources.
@@ -43,6 +84,16 @@ pub enum SelectPer {
     /// chosen on any of them is ray traced on all of them, so patch boundaries
     /// cannot show (paper Sect. 3).
     Object,
+}
+
+impl SelectPer {
+    /// The name used on the command line and in the statistics.
+    pub fn name(self) -> &'static str {
+        match self {
+            SelectPer::Patch => "patch",
+            SelectPer::Object => "object",
+        }
+    }
 }
 
 /// Thresholds of the selection criteria (paper Sect. 3) and ray counts.
@@ -220,15 +271,6 @@ pub fn patch_name(scene: &Scene, sol: &Solution, p: u32) -> String {
 
 fn mean(c: Rgb) -> f32 {
     (c.x + c.y + c.z) / 3.0
-}
-
-/// Solid angle of triangle `t` seen from `x` (Van Oosterom & Strackee 1983).
-pub fn triangle_solid_angle(x: Vec3, t: &[Vec3; 3]) -> f32 {
-    let (a, b, c) = (t[0] - x, t[1] - x, t[2] - x);
-    let (la, lb, lc) = (a.length(), b.length(), c.length());
-    let num = a.dot(b.cross(c)).abs();
-    let den = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
-    2.0 * num.atan2(den)
 }
 
 /// Solid angle under which `x` sees the front of a set of triangles.
@@ -567,82 +609,6 @@ pub fn select<'a>(
         picks,
         criteria,
     })
-}
-
-/// A distinct colour for ray-traced source `i` (golden-angle hues).
-pub fn source_colour(i: usize) -> Rgb {
-    let h = (i as f32 * 0.381_966).fract() * 6.0;
-    let x = 1.0 - ((h % 2.0) - 1.0).abs();
-    match h as u32 {
-        0 => Vec3::new(1.0, x, 0.0),
-        1 => Vec3::new(x, 1.0, 0.0),
-        2 => Vec3::new(0.0, 1.0, x),
-        3 => Vec3::new(0.0, x, 1.0),
-        4 => Vec3::new(x, 0.0, 1.0),
-        _ => Vec3::new(1.0, 0.0, x),
-    }
-}
-
-/// A picture of the selection seen through `camera` (`width x height`, one ray per
-/// pixel centre): each patch in the mean colour of the sources ray traced on it
-/// ([`source_colour`]), brighter the more shadow rays per hit it casts (log scale up
-/// to the most any patch casts); dark grey where nothing is ray traced; patch
-/// boundaries drawn dark. Returns the image in display values (0..1).
-pub fn selection_map(
-    scene: &Scene,
-    accel: &dyn Accel,
-    camera: &Camera,
-    sel: &Selection,
-    width: u32,
-    height: u32,
-) -> Image {
-    let mesh = &sel.solution.mesh;
-    let max_rays = (0..mesh.patches.len() as u32)
-        .map(|p| sel.rays(p))
-        .max()
-        .unwrap_or(0);
-    let patch_ids: Vec<Option<u32>> = (0..width * height)
-        .into_par_iter()
-        .map(|i| {
-            let (x, y) = (i % width, i / width);
-            let ray = camera.ray(x as f32 + 0.5, y as f32 + 0.5);
-            accel.intersect(&ray).map(|hit| {
-                let front = {
-                    let m = &scene.shapes[hit.shape as usize].mesh;
-                    let [a, b, c] = m.triangle(hit.tri as usize);
-                    (b - a).cross(c - a).dot(ray.dir) < 0.0
-                };
-                mesh.patch_at(scene, &hit, front)
-            })
-        })
-        .collect();
-    let mut img = Image::new(width, height);
-    for y in 0..height {
-        for x in 0..width {
-            let i = (y * width + x) as usize;
-            let Some(p) = patch_ids[i] else { continue };
-            let picks = sel.picks(p);
-            let mut c = if picks.is_empty() {
-                Vec3::splat(0.15)
-            } else {
-                let hue = picks
-                    .iter()
-                    .map(|k| source_colour(k.source as usize))
-                    .sum::<Vec3>()
-                    / picks.len() as f32;
-                let r = sel.rays(p) as f32;
-                let level = (1.0 + r).ln() / (1.0 + max_rays.max(1) as f32).ln();
-                hue * (0.3 + 0.7 * level)
-            };
-            let edge = (x + 1 < width && patch_ids[i + 1] != Some(p))
-                || (y + 1 < height && patch_ids[i + width as usize] != Some(p));
-            if edge {
-                c *= 0.35;
-            }
-            img.pixels[i] = c;
-        }
-    }
-    img
 }
 
 #[cfg(test)]

@@ -116,3 +116,62 @@ pub fn looking(origin: glam::Vec3, target: glam::Vec3, fov: f32, w: u32, h: u32)
         spp: None,
     }
 }
+
+pub fn v(x: f32, y: f32, z: f32) -> Vec3 {
+    Vec3::new(x, y, z)
+}
+
+/// A floor-level square `[x0,x1] x [y0,y1]` at height z, facing up (or down).
+pub fn square(x0: f32, x1: f32, y0: f32, y1: f32, z: f32, down: bool) -> crate::geometry::TriMesh {
+    let mut m = quad([v(x0, y0, z), v(x1, y0, z), v(x1, y1, z), v(x0, y1, z)]);
+    if down {
+        m.flip_normals();
+    }
+    m
+}
+
+/// A closed box lit by a point light and a small ceiling lamp, with a table that
+/// casts shadows from both onto the floor; a camera looking down at the table.
+pub fn room() -> Scene {
+    let lo = v(0.0, 0.0, 0.0);
+    let hi = v(2.0, 2.0, 2.0);
+    let mut shapes: Vec<(crate::geometry::TriMesh, Rgb)> = box_inside(lo, hi)
+        .into_iter()
+        .map(|f| (f, Vec3::new(0.6, 0.5, 0.4)))
+        .collect();
+    shapes.push((square(0.7, 1.3, 0.7, 1.3, 0.8, false), Vec3::splat(0.7)));
+    shapes.push((square(0.7, 1.3, 0.7, 1.3, 0.8, true), Vec3::splat(0.7)));
+    shapes.push((square(0.8, 1.2, 0.8, 1.2, 1.99, true), Vec3::ZERO));
+    let lamp = shapes.len() - 1;
+    let mut s = scene(
+        shapes,
+        vec![Light::Point {
+            position: v(0.4, 0.5, 1.6),
+            intensity: Vec3::splat(1.5),
+        }],
+        &[(lamp, Vec3::splat(2.0))],
+    );
+    s.sensors
+        .push(looking(v(1.0, 0.2, 1.7), v(1.0, 1.0, 0.4), 80.0, 48, 48));
+    s
+}
+
+/// An open scene: a floor and a one-sided table top, both lit by a point light and
+/// a lamp above; nothing else reflects onto them, so their lists hold only lights.
+pub fn open_scene() -> Scene {
+    let mut s = scene(
+        vec![
+            (square(-1.0, 1.0, -1.0, 1.0, 0.0, false), Vec3::splat(0.5)),
+            (square(-0.3, 0.3, -0.3, 0.3, 0.5, false), Vec3::splat(0.7)),
+            (square(0.2, 0.6, 0.2, 0.6, 1.5, true), Vec3::ZERO),
+        ],
+        vec![Light::Point {
+            position: v(-0.5, 0.2, 1.2),
+            intensity: Vec3::splat(1.5),
+        }],
+        &[(2, Vec3::splat(2.0))],
+    );
+    s.sensors
+        .push(looking(v(0.0, -1.5, 1.5), v(0.0, 0.0, 0.2), 70.0, 48, 48));
+    s
+}

@@ -222,3 +222,12 @@ impl TriMesh {
         Ok(())
     }
 }
+
+/// Solid angle of triangle `t` seen from `x` (Van Oosterom & Strackee 1983).
+pub fn triangle_solid_angle(x: Vec3, t: &[Vec3; 3]) -> f32 {
+    let (a, b, c) = (t[0] - x, t[1] - x, t[2] - x);
+    let (la, lb, lc) = (a.length(), b.length(), c.length());
+    let num = a.dot(b.cross(c)).abs();
+    let den = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
+    2.0 * num.atan2(den)
+}

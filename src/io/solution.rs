@@ -631,7 +631,8 @@ mod tests {
         static SOLVED: OnceLock<(Scene, Solution)> = OnceLock::new();
         SOLVED.get_or_init(|| {
             let scene = box_scene();
-            let sol = crate::radiosity::solve(&scene, &Bvh::build(&scene), &settings(), None);
+            let sol =
+                crate::radiosity::solve(&scene, &Bvh::build(&scene), &settings(), &crate::progress::Silent);
             (scene, sol)
         })
     }

@@ -25,14 +25,16 @@
 //! average of the samples within the pixel areas".
 
 use glam::{Vec2, Vec3};
-use indicatif::ProgressBar;
 use rayon::prelude::*;
 
+use super::counters::{Counters, LevelStats};
 use super::sib::{self, Entry, Neighbour, SibQuery, NO_OBJECT};
-use super::{hash32, splitmix64, Camera, FilmSample, SampleBuffer, Settings, Tracer};
-use crate::io::{srgb_encode, Image};
+use super::{FilmSample, SampleBuffer, Settings, Tracer};
+use crate::camera::Camera;
+use crate::image::{srgb_encode, Image};
+use crate::progress::Progress;
+use crate::sampling::{fold32, hash32, splitmix64};
 use crate::scene::Rgb;
-use crate::stats::{Counters, LevelStats};
 
 /// "No sample".
 const NONE: u32 = u32::MAX;
@@ -200,7 +202,7 @@ pub fn render_adaptive(
     camera: &Camera,
     settings: &Settings,
     refine: &Refine,
-    progress: &dyn Fn(&str, u64) -> ProgressBar,
+    progress: &dyn Progress,
 ) -> AdaptiveOutput {
     let (w, h) = (settings.width, settings.height);
     let ctx = LevelCtx {
@@ -225,7 +227,7 @@ pub fn render_adaptive(
     let mut levels = Vec::new();
     let seed_of = |level: i32, cx: u32, cy: u32| -> u32 {
         let key = ((level + 1) as u64) << 58 ^ (settings.view as u64) << 52 ^ (cy as u64) << 26 ^ cx as u64;
-        super::fold32(splitmix64(settings.seed ^ splitmix64(key)))
+        fold32(splitmix64(settings.seed ^ splitmix64(key)))
     };
     let jitter = |seed: u32| {
         let h = splitmix64(seed as u64 ^ 0xA076_1D64_78BD_642F);
@@ -356,64 +358,6 @@ pub fn render_adaptive(
     }
 }
 
-/// Pictures of the method (the paper's Figs. 4 and 5), in display values (0..1).
-impl SampleSet {
-    /// The shadow image of ray-traced source `source`: per
-    /// pixel, from its stored sample, white where every known light point is lit,
-    /// black where all are shadowed, grey in between (the lit fraction), and dark red
-    /// where none is known (not ray traced there, facing away, or nothing hit).
-    pub fn shadow_image(&self, source: u32) -> Image {
-        let mut img = Image::new(self.width, self.height);
-        for (p, px) in img.pixels.iter_mut().enumerate() {
-            let (mut known, mut lit) = (0u32, 0u32);
-            for e in self.record(self.base[p]).iter().filter(|e| e.source == source) {
-                known += e.known.count_ones();
-                lit += (e.known & e.lit).count_ones();
-            }
-            *px = if known == 0 {
-                Vec3::new(0.35, 0.05, 0.05)
-            } else {
-                Vec3::splat(lit as f32 / known as f32)
-            };
-        }
-        img
-    }
-
-    /// Samples per pixel: black for one sample (levels -1 and 0), then blue, green
-    /// and white for 4, 16 and more.
-    pub fn density_image(&self) -> Image {
-        let mut img = Image::new(self.width, self.height);
-        for (p, px) in img.pixels.iter_mut().enumerate() {
-            *px = match self.pixel(p as u32).len() {
-                0 | 1 => Vec3::ZERO,
-                2..=4 => Vec3::new(0.1, 0.2, 0.9),
-                5..=16 => Vec3::new(0.2, 0.9, 0.2),
-                _ => Vec3::ONE,
-            };
-        }
-        img
-    }
-
-    /// Shadow rays cast per pixel (all its samples and their reflections), on a log
-    /// scale from black (none) to white (the most any pixel cast).
-    pub fn rays_image(&self) -> Image {
-        let per: Vec<u64> = (0..self.width * self.height)
-            .map(|p| {
-                self.pixel(p)
-                    .iter()
-                    .map(|&i| self.samples[i as usize].rays as u64)
-                    .sum()
-            })
-            .collect();
-        let max = per.iter().copied().max().unwrap_or(0).max(1) as f32;
-        let mut img = Image::new(self.width, self.height);
-        for (px, &r) in img.pixels.iter_mut().zip(&per) {
-            *px = Vec3::splat((1.0 + r as f32).ln() / (1.0 + max).ln());
-        }
-        img
-    }
-}
-
 /// The point `jitter` (in [0, 1)^2) of the cell at `origin` of size `size`, kept
 /// strictly inside the cell (in f32, `511 + 0.99999994` rounds to 512).
 fn in_cell(origin: Vec2, size: Vec2, jitter: Vec2) -> Vec2 {
@@ -487,7 +431,7 @@ struct LevelCtx<'a> {
     /// Which ray-traced sources are point or spot lights.
     point: Vec<bool>,
     nsrc: usize,
-    progress: &'a dyn Fn(&str, u64) -> ProgressBar,
+    progress: &'a dyn Progress,
 }
 
 /// Whether a level's samples are stored in the SIB.
@@ -515,7 +459,8 @@ impl LevelCtx<'_> {
             (self.tracer, self.camera, self.refine, &self.point, self.nsrc);
         let first_sample = set.samples.len() as u32;
         let store = store == Store::Base;
-        let pb = (self.progress)(&format!("level {level:>2}"), tasks.len() as u64);
+        self.progress
+            .start(&format!("level {level:>2}"), tasks.len() as u64);
         let read: &SampleSet = set;
         // Every chunk a task of its own: rayon otherwise runs a quarter of the level
         // as one piece on one thread, and samples' costs vary so much (mirrors, shadow
@@ -567,7 +512,7 @@ impl LevelCtx<'_> {
                         entries.extend_from_slice(&record);
                     }
                 }
-                pb.inc(chunk.len() as u64);
+                self.progress.advance(chunk.len() as u64);
                 Chunk {
                     samples,
                     lens,
@@ -576,7 +521,7 @@ impl LevelCtx<'_> {
                 }
             })
             .collect();
-        pb.finish_and_clear();
+        self.progress.finish();
         let mut total = Counters::with_sources(nsrc);
         for Chunk {
             samples,

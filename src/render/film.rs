@@ -11,7 +11,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::io::Image;
+use crate::image::Image;
 
 /// One image sample: a film position in pixels and the radiance found there.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -25,19 +25,25 @@ pub struct FilmSample {
 }
 
 /// Pixel reconstruction filter.
-#[derive(Debug, Clone, Copy, PartialEq, clap::ValueEnum, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Filter {
     /// Equal weights for the samples inside the pixel's square (the paper's).
-    #[value(name = "box")]
     Box,
     /// Mitsuba's Gaussian: stddev 0.5 px, radius 2 px, shifted to reach 0 at the radius.
     #[default]
-    #[value(name = "gaussian")]
     Gaussian,
 }
 
 impl Filter {
+    /// The name used on the command line and in the statistics.
+    pub fn name(self) -> &'static str {
+        match self {
+            Filter::Box => "box",
+            Filter::Gaussian => "gaussian",
+        }
+    }
+
     /// Half-width of the filter's support, in pixels.
     pub fn radius(self) -> f32 {
         match self {

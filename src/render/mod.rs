@@ -7,63 +7,34 @@
 //! [`crate::selection::Selection`] picked for the patch hit.
 
 pub mod adaptive;
-pub mod bsdf;
-pub mod camera;
+pub mod counters;
+pub mod debug;
 pub mod film;
-pub mod lights;
 pub mod shading;
 pub mod sib;
 
 use std::time::Instant;
 
 use glam::Vec2;
-use indicatif::ProgressBar;
 use rayon::prelude::*;
 
 use crate::accel::Accel;
-use crate::io::Image;
+use crate::camera::Camera;
+use crate::image::Image;
+use crate::progress::Progress;
+use crate::sampling::{hash32, pixel_seed};
 use crate::scene::Scene;
 use crate::selection::Selection;
-use crate::stats::Counters;
 use crate::{Error, Result};
+pub use counters::{Counters, LevelStats};
 
-pub use crate::stats::LevelStats;
+pub use crate::selection::Method;
 pub use adaptive::{Refine, SampleSet};
-pub use camera::Camera;
 pub use film::{FilmSample, Filter, SampleBuffer};
-pub use lights::SampledLight;
-pub use shading::{SurfacePoint, Tracer};
-
-/// How the direct light is computed (the paper's renderers as modes of one code).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize, Default)]
-#[serde(rename_all = "lowercase")]
-pub enum Method {
-    /// Exact direct light: shadow rays to every light source at every diffuse hit;
-    /// no indirect light.
-    #[default]
-    Direct,
-    /// Standard two-pass radiosity: shading from the radiosity mesh alone (Fig. 7).
-    Twopass,
-    /// Radiosity for indirect light, every light source ray traced at fixed counts:
-    /// the fully sampled "norm" picture (Fig. 8).
-    Norm,
-    /// Per-patch source selection with the five criteria of Sect. 3 (Fig. 9).
-    Local,
-    /// The `--global-sources` strongest sources ray traced everywhere.
-    Global,
-}
-
-impl Method {
-    /// The name used on the command line.
-    pub fn name(self) -> String {
-        clap::ValueEnum::to_possible_value(&self)
-            .map(|v| v.get_name().to_owned())
-            .unwrap_or_default()
-    }
-}
+pub use shading::Tracer;
 
 /// How the image is sampled.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum Sampler {
     /// The paper's adaptive refinement (levels -1 to `--max-level`) with the shadow
@@ -73,6 +44,16 @@ pub enum Sampler {
     /// `--spp` jittered samples in every pixel (Owen-scrambled Sobol), every shadow ray
     /// cast.
     Uniform,
+}
+
+impl Sampler {
+    /// The name used on the command line and in the statistics.
+    pub fn name(self) -> &'static str {
+        match self {
+            Sampler::Adaptive => "adaptive",
+            Sampler::Uniform => "uniform",
+        }
+    }
 }
 
 /// Everything that controls one rendering of one view.
@@ -121,7 +102,7 @@ pub struct Output {
     pub reconstruct_s: f64,
 }
 
-/// Renders one view of `scene`. `progress(label, work)` makes a progress bar for each
+/// Renders one view of `scene`. `progress` hears of each
 /// stage (each level of the adaptive sampler; image rows for the uniform one).
 /// `selection` (made by [`crate::selection::select`] from a radiosity solution) is
 /// required by every method but `direct`, which ignores it.
@@ -130,7 +111,7 @@ pub fn render(
     accel: &dyn Accel,
     settings: &Settings,
     selection: Option<&Selection>,
-    progress: &dyn Fn(&str, u64) -> ProgressBar,
+    progress: &dyn Progress,
 ) -> Result<Output> {
     let tracer = match (settings.method, selection) {
         (Method::Direct, _) => Tracer::new(scene, accel, settings),
@@ -166,14 +147,9 @@ pub fn render(
 }
 
 /// `settings.spp` jittered samples in every pixel.
-fn render_uniform(
-    tracer: &Tracer,
-    camera: &Camera,
-    settings: &Settings,
-    progress: &dyn Fn(&str, u64) -> ProgressBar,
-) -> Output {
+fn render_uniform(tracer: &Tracer, camera: &Camera, settings: &Settings, progress: &dyn Progress) -> Output {
     let (w, h) = (settings.width, settings.height);
-    let pb = progress("render", h as u64);
+    progress.start("render", h as u64);
     let start = Instant::now();
     // One row per task (see adaptive.rs: rayon's larger pieces unbalance the threads).
     let rows: Vec<(Vec<FilmSample>, Counters)> = (0..h)
@@ -197,11 +173,11 @@ fn render_uniform(
                     samples.push(FilmSample { x: fx, y: fy, value });
                 }
             }
-            pb.inc(1);
+            progress.advance(1);
             (samples, counters)
         })
         .collect();
-    pb.finish_and_clear();
+    progress.finish();
     let trace_s = start.elapsed().as_secs_f64();
 
     let mut counters = Counters::with_sources(tracer.source_count());
@@ -223,32 +199,5 @@ fn render_uniform(
     }
 }
 
-/// A progress-bar maker for [`render`] that shows nothing.
-pub fn no_progress(_: &str, _: u64) -> ProgressBar {
-    ProgressBar::hidden()
-}
-
-/// A 32-bit seed for pixel `(x, y)` of a view, from the user's seed.
-fn pixel_seed(seed: u64, view: u64, x: u32, y: u32) -> u32 {
-    fold32(splitmix64(
-        seed ^ splitmix64(view << 48 ^ (y as u64) << 24 ^ x as u64),
-    ))
-}
-
-/// Folds a 64-bit hash into 32 bits (for sample seeds).
-pub(crate) fn fold32(h: u64) -> u32 {
-    (h ^ (h >> 32)) as u32
-}
-
-/// SplitMix64's finaliser: a good 64-bit mixing function.
-pub(crate) fn splitmix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
-/// Mixes a 32-bit value (for deriving independent sample seeds).
-pub(crate) fn hash32(x: u32) -> u32 {
-    fold32(splitmix64(x as u64))
-}
+#[cfg(test)]
+mod tests;

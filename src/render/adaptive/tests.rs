@@ -57,15 +57,11 @@ fn settings(w: u32, h: u32, sib: bool) -> Settings {
     }
 }
 
-fn no_bars(_: &str, _: u64) -> ProgressBar {
-    ProgressBar::hidden()
-}
-
 fn run(scene: &Scene, st: &Settings) -> AdaptiveOutput {
     let bvh = Bvh::build(scene);
     let tracer = Tracer::new(scene, &bvh, st);
     let camera = Camera::new(&scene.sensors[0], st.width, st.height);
-    render_adaptive(&tracer, &camera, st, &st.refine, &no_bars)
+    render_adaptive(&tracer, &camera, st, &st.refine, &crate::progress::Silent)
 }
 
 /// Where a sample's primary ray meets the floor (z = 0).

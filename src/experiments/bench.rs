@@ -26,8 +26,9 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::accel::{Accel, Bvh, Ray};
-use crate::render::shading::SurfacePoint;
-use crate::render::{Camera, SampledLight};
+use crate::camera::Camera;
+use crate::emitters::SampledLight;
+use crate::interaction::SurfacePoint;
 use crate::scene::Scene;
 use crate::{Error, Result};
 
@@ -401,7 +402,7 @@ pub fn run(scene: &Scene, plan: &Plan, threads: usize) -> Result<Report> {
             // spell of the machine falls on both.
             let one_pool = plan.solve_scaling.then_some(&one);
             let (solve_s, solve_1t_s, sol) = best_of_interleaved(plan.repeats, one_pool, || {
-                crate::radiosity::solve(scene, &bvh, st, None)
+                crate::radiosity::solve(scene, &bvh, st, &crate::progress::Silent)
             });
             for view in 0..scene.sensors.len() {
                 let render = || render_view(scene, &bvh, &sol, view, plan);
@@ -485,7 +486,7 @@ fn render_view(
         Some(&ViewScale::of(&camera)),
     )
     .expect("local selection of a solution made here");
-    let out = crate::render::render(scene, bvh, &settings, Some(&sel), &crate::render::no_progress)
+    let out = crate::render::render(scene, bvh, &settings, Some(&sel), &crate::progress::Silent)
         .expect("the bench's own settings render");
     (out.counters.primary_rays, out.counters.shadow_rays)
 }

@@ -363,6 +363,42 @@ pub fn hilbert_d2xy(order: u32, d: u64) -> (u32, u32) {
     (x, y)
 }
 
+/// Radiant power of a light (mean over RGB).
+pub fn light_power(scene: &Scene, light: &Light) -> f64 {
+    match *light {
+        Light::Point { intensity, .. } => 4.0 * std::f64::consts::PI * mean_rgb(intensity) as f64,
+        Light::Spot {
+            intensity,
+            cutoff_angle,
+            beam_width,
+            ..
+        } => {
+            // I * integral of the falloff over the sphere.
+            let beam = beam_width.min(cutoff_angle) as f64;
+            let cut = cutoff_angle as f64;
+            let n = 2000;
+            let mut sum = 0.0;
+            for k in 0..n {
+                let th = (k as f64 + 0.5) / n as f64 * cut;
+                let f = if th <= beam {
+                    1.0
+                } else {
+                    (cut - th) / (cut - beam)
+                };
+                sum += f * th.sin() * cut / n as f64;
+            }
+            2.0 * std::f64::consts::PI * sum * mean_rgb(intensity) as f64
+        }
+        Light::Area { shape, radiance } => {
+            std::f64::consts::PI * mean_rgb(radiance) as f64 * scene.shapes[shape as usize].mesh.area() as f64
+        }
+    }
+}
+
+fn mean_rgb(c: Rgb) -> f32 {
+    (c.x + c.y + c.z) / 3.0
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,0 +1,172 @@
+//! The renderer with a selection: each source's light arrives by one route, whatever
+//! the method.
+
+use glam::Vec3;
+
+use super::*;
+use crate::accel::Bvh;
+use crate::radiosity::{solve, SolveSettings, SourceId};
+use crate::selection::{select, Pick, SelectSettings};
+use crate::testutil::{open_scene, room};
+
+fn solve_settings(mesh_size: f32, n: u32) -> SolveSettings {
+    SolveSettings {
+        mesh_size,
+        sources_per_patch: n,
+        shoot_samples: 64,
+        tolerance: 0.01,
+        max_shots: 40,
+        seed: 1,
+    }
+}
+
+fn mean(c: Vec3) -> f32 {
+    (c.x + c.y + c.z) / 3.0
+}
+
+/// Renders without progress bars.
+fn draw(s: &Scene, bvh: &Bvh, st: &Settings, sel: Option<&Selection>) -> Output {
+    render(s, bvh, st, sel, &crate::progress::Silent).unwrap()
+}
+
+fn settings(method: Method) -> Settings {
+    Settings {
+        method,
+        view: 0,
+        width: 48,
+        height: 48,
+        spp: 4,
+        seed: 7,
+        area_samples: 16,
+        max_depth: 2,
+        filter: Filter::Box,
+        sampler: Sampler::Uniform,
+        refine: Refine::default(),
+    }
+}
+
+fn image_mean(img: &crate::image::Image) -> f32 {
+    img.pixels.iter().map(|p| mean(*p)).sum::<f32>() / img.pixels.len() as f32
+}
+
+/// Every method routes each source's light once: the image means agree (within the
+/// mesh's interpolation error and noise), and norm's ray-traced light is direct's.
+#[test]
+fn no_light_is_counted_twice() {
+    let s = room();
+    let bvh = Bvh::build(&s);
+    let sol = solve(&s, &bvh, &solve_settings(0.1, 4), &crate::progress::Silent);
+    let st = SelectSettings {
+        area_samples: 16,
+        global_sources: 1,
+        ..Default::default()
+    };
+    let mut means = Vec::new();
+    for m in [Method::Twopass, Method::Norm, Method::Local, Method::Global] {
+        let sel = select(&s, &sol, m, &st, None).unwrap();
+        let out = draw(&s, &bvh, &settings(m), Some(&sel));
+        means.push((m, image_mean(&out.image), out.counters.shadow_rays));
+    }
+    let norm = means[1].1;
+    for &(m, mean, _) in &means {
+        assert!(
+            (mean - norm).abs() < 0.03 * norm,
+            "{m:?}: {mean} vs norm {norm} ({means:?})"
+        );
+    }
+    // Twopass casts no shadow rays; norm casts the most.
+    assert_eq!(means[0].2, 0);
+    assert!(means.iter().all(|&(_, _, r)| r <= means[1].2), "{means:?}");
+    // Norm = direct light by rays + indirect light from the mesh (a closed box of
+    // reflectance 0.4..0.6 reflects a lot: more than the direct light).
+    let direct = draw(&s, &bvh, &settings(Method::Direct), None);
+    let d = image_mean(&direct.image);
+    assert!(1.5 * d < norm && norm < 5.0 * d, "direct {d} norm {norm}");
+}
+
+/// Where local selects every listed source with the rays norm uses, the two are the
+/// same renderer: the same picture from the same seed.
+#[test]
+fn norm_and_local_agree_where_every_source_is_selected() {
+    let s = open_scene();
+    let bvh = Bvh::build(&s);
+    let sol = solve(&s, &bvh, &solve_settings(0.1, 4), &crate::progress::Silent);
+    assert!(sol
+        .lists
+        .iter()
+        .flatten()
+        .all(|e| matches!(e.source, SourceId::Light(_))));
+    let all = SelectSettings {
+        radiance_threshold: 0.0,
+        reflectivity_threshold: 0.0,
+        gradient_threshold: -1.0,
+        max_solid_angle: 100.0,
+        hemisphere_rays: 1_000_000,
+        view_criterion: false,
+        area_samples: 16,
+        ..Default::default()
+    };
+    let norm_sel = select(&s, &sol, Method::Norm, &all, None).unwrap();
+    let local_sel = select(&s, &sol, Method::Local, &all, None).unwrap();
+    let norm = draw(&s, &bvh, &settings(Method::Norm), Some(&norm_sel));
+    let local = draw(&s, &bvh, &settings(Method::Local), Some(&local_sel));
+    // Every receiving patch lists both lights, so both methods pick both everywhere.
+    for (p, mp) in sol.mesh.patches.iter().enumerate() {
+        if mp.reflectance.max_element() > 0.0 && !sol.lists[p].is_empty() {
+            let mut a: Vec<Pick> = norm_sel.picks(p as u32).to_vec();
+            let mut b: Vec<Pick> = local_sel.picks(p as u32).to_vec();
+            a.sort_by_key(|k| k.source);
+            b.sort_by_key(|k| k.source);
+            assert_eq!(a, b, "patch {p}");
+        }
+    }
+    assert_eq!(norm.counters.shadow_rays, local.counters.shadow_rays);
+    for (a, b) in norm.image.pixels.iter().zip(&local.image.pixels) {
+        assert!(
+            (*a - *b).abs().max_element() <= 1e-5 * (1.0 + a.max_element()),
+            "{a} vs {b}"
+        );
+    }
+}
+
+/// A selected radiant patch is sampled with its radiosity: replacing its stored
+/// contribution by rays keeps the image mean, and costs rays.
+#[test]
+fn a_selected_radiant_patch_gives_the_light_it_stored() {
+    let s = room();
+    let bvh = Bvh::build(&s);
+    let sol = solve(&s, &bvh, &solve_settings(0.1, 8), &crate::progress::Silent);
+    let patches_listed = sol
+        .lists
+        .iter()
+        .flatten()
+        .filter(|e| matches!(e.source, SourceId::Patch(_)))
+        .count();
+    assert!(patches_listed > 0);
+    let twopass = select(&s, &sol, Method::Twopass, &SelectSettings::default(), None).unwrap();
+    let every = SelectSettings {
+        radiance_threshold: 0.0,
+        reflectivity_threshold: 0.0,
+        gradient_threshold: -1.0,
+        max_solid_angle: 100.0,
+        view_criterion: false,
+        area_samples: 64,
+        ..Default::default()
+    };
+    let local = select(&s, &sol, Method::Local, &every, None).unwrap();
+    assert!(
+        local.sources.len() > s.lights.len(),
+        "radiant patches are ray traced"
+    );
+    let mut st = settings(Method::Local);
+    st.spp = 16;
+    let a = draw(&s, &bvh, &settings(Method::Twopass), Some(&twopass));
+    let b = draw(&s, &bvh, &st, Some(&local));
+    let (ma, mb) = (image_mean(&a.image), image_mean(&b.image));
+    assert!((ma - mb).abs() < 0.03 * ma, "twopass {ma} vs all selected {mb}");
+    let patch_rays: u64 = b.counters.sources[s.lights.len()..]
+        .iter()
+        .map(|c| c.shadow_rays)
+        .sum();
+    assert!(patch_rays > 0);
+}
