@@ -25,7 +25,7 @@ use glam::{Mat3, Mat4, Vec3};
 use roxmltree::{Document, Node};
 
 use crate::error::{Error, Pos};
-use crate::geometry::{bezier, meshfile, shapes, TriMesh};
+use crate::geometry::{bezier, obj, ply, shapes, TriMesh};
 use crate::scene::{Bsdf, BsdfKind, FovAxis, Light, Rgb, Scene, Sensor, Shape};
 use crate::Result;
 
@@ -1182,9 +1182,9 @@ impl Loader {
                 let face_normals = obj.boolean("face_normals", false)?;
                 obj.get("flip_tex_coords");
                 let mesh = if ty == "obj" {
-                    meshfile::read_obj(&path, face_normals)?
+                    obj::read_obj(&path, face_normals)?
                 } else {
-                    meshfile::read_ply(&path, face_normals)?
+                    ply::read_ply(&path, face_normals)?
                 };
                 (mesh, format!("{ty}:{fname}"))
             }
