@@ -1429,7 +1429,7 @@ fn cmd_tessellate(a: TessellateArgs) -> Result<()> {
         )));
     }
     let mesh = crate::geometry::bezier::tessellate(&patches, a.coarse, a.fine);
-    crate::geometry::meshfile::write_obj(&mesh, &a.output)?;
+    crate::io::write_obj(&mesh, &a.output)?;
     eprintln!(
         "radtrace: {} Bezier patches -> {} triangles, {} vertices -> {}",
         patches.len(),

@@ -104,7 +104,7 @@ fn tessellate_writes_an_obj_that_loads_back_as_the_same_surface() {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let mesh = radtrace::geometry::meshfile::read_obj(&out, false).unwrap();
+    let mesh = radtrace::geometry::obj::read_obj(&out, false).unwrap();
     // 32 patches x (2*4)^2 quads x 2 triangles.
     assert_eq!(mesh.triangle_count(), 32 * 64 * 2);
     assert_eq!(mesh.normals.len(), mesh.positions.len());

@@ -5,7 +5,7 @@ use std::path::Path;
 
 fuzz_target!(|data: &[u8]| {
     for face_normals in [false, true] {
-        if let Ok(mesh) = radtrace::geometry::meshfile::parse_obj(Path::new("fuzz.obj"), data, face_normals) {
+        if let Ok(mesh) = radtrace::geometry::obj::parse_obj(Path::new("fuzz.obj"), data, face_normals) {
             assert!(mesh.validate().is_ok());
         }
     }

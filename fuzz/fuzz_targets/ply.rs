@@ -5,7 +5,7 @@ use libfuzzer_sys::fuzz_target;
 use std::path::Path;
 
 fuzz_target!(|data: &[u8]| {
-    if let Ok(mesh) = radtrace::geometry::meshfile::parse_ply(Path::new("fuzz.ply"), data, false) {
+    if let Ok(mesh) = radtrace::geometry::ply::parse_ply(Path::new("fuzz.ply"), data, false) {
         assert!(mesh.validate().is_ok());
     }
 });

@@ -12,7 +12,7 @@ use std::path::Path;
 use glam::{DVec3, Vec2, Vec3};
 
 use crate::error::Pos;
-use crate::geometry::meshfile::{parse_coord, text_lines, tokens};
+use crate::geometry::text::{parse_coord, text_lines, tokens};
 use crate::geometry::{Patch, TriMesh};
 use crate::{Error, Result};
 

@@ -5,8 +5,11 @@
 //! input polygon, or the piece of a Bezier patch, that the radiosity pass meshes.
 
 pub mod bezier;
-pub mod meshfile;
+pub mod obj;
+pub mod ply;
 pub mod shapes;
+mod text;
+mod trimesh_build;
 
 use glam::{Mat3, Mat4, Vec2, Vec3};
 

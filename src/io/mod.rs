@@ -1,9 +1,11 @@
-//! Images in and out: OpenEXR (linear radiance) and PNG (sRGB, 8 bit).
+//! Images in and out: OpenEXR (linear radiance) and PNG (sRGB, 8 bit); meshes out
+//! as OBJ ([`write_obj`]).
 //!
 //! Every write goes through [`write_atomic`]: the bytes are written to a temporary
 //! file beside the target, synced, and renamed over it, so an interrupted run never
 //! leaves a partial file and an existing output is only ever replaced by a complete one.
 
+mod obj;
 pub mod solution;
 
 use std::fs::{self, File, OpenOptions};
@@ -19,6 +21,8 @@ use glam::Vec3;
 use crate::image::srgb_encode;
 use crate::image::{srgb_decode, to_srgb8, Image};
 use crate::{Error, Result};
+
+pub use obj::write_obj;
 
 /// The largest image [`read_image`] accepts, in pixels (guards against garbage
 /// headers that claim absurd sizes).

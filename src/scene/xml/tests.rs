@@ -1,11 +1,13 @@
 use std::f32::consts::PI;
 use std::fs;
+use std::path::PathBuf;
 
 use glam::{Mat4, Vec3, Vec4};
 use tempfile::TempDir;
 
 use super::*;
 use crate::geometry::Patch;
+use crate::scene::{Bsdf, BsdfKind, FovAxis, Light};
 
 const SENSOR: &str = r#"<sensor type="perspective"><float name="fov" value="45"/></sensor>"#;
 

@@ -1,0 +1,296 @@
+//! BSDF plugins: `diffuse`, `conductor`, `plastic` (rough variants become their
+//! smooth counterparts), `twosided`, `blendbsdf`; the unsupported ones become
+//! diffuse or their nested bsdf.
+
+use glam::Vec3;
+use roxmltree::Node;
+
+use super::document::{tag, Loader, Src};
+use super::parse;
+use super::properties::{Child, Obj, Target, Val};
+use crate::scene::{Bsdf, BsdfKind};
+use crate::Result;
+
+impl Loader {
+    /// Parses a `<bsdf>` (registering its id).
+    pub(super) fn bsdf(&mut self, s: Src, c: Node) -> Result<Bsdf> {
+        self.check_attrs(s, c, &["type", "id", "name"]);
+        let ty = self.attr_req(s, c, "type")?;
+        let obj = self.collect(s, c, format!("bsdf '{ty}'"))?;
+        let (kind, twosided) = match ty.as_str() {
+            "diffuse" | "roughdiffuse" => {
+                if ty == "roughdiffuse" {
+                    self.rough(s, c, &ty, "diffuse");
+                    obj.get("alpha");
+                    obj.get("use_fast_approx");
+                }
+                let reflectance = obj.reflectance("reflectance", 0.5)?;
+                (BsdfKind::Diffuse { reflectance }, false)
+            }
+            "conductor" | "roughconductor" => {
+                if ty == "roughconductor" {
+                    self.rough(s, c, &ty, "conductor");
+                    for p in ["alpha", "alpha_u", "alpha_v", "distribution", "sample_visible"] {
+                        obj.get(p);
+                    }
+                }
+                (self.conductor(s, c, &obj)?, false)
+            }
+            "plastic" | "roughplastic" => {
+                if ty == "roughplastic" {
+                    self.rough(s, c, &ty, "plastic");
+                    for p in ["alpha", "distribution", "sample_visible"] {
+                        obj.get(p);
+                    }
+                }
+                let diffuse_reflectance = obj.reflectance("diffuse_reflectance", 0.5)?;
+                let specular_reflectance = obj.reflectance("specular_reflectance", 1.0)?;
+                let int_ior = ior(&obj, "int_ior", 1.49)?;
+                let ext_ior = ior(&obj, "ext_ior", 1.000277)?;
+                let nonlinear = obj.boolean("nonlinear", false)?;
+                let kind = BsdfKind::Plastic {
+                    diffuse_reflectance,
+                    specular_reflectance,
+                    eta: int_ior / ext_ior,
+                    nonlinear,
+                };
+                (kind, false)
+            }
+            "twosided" => {
+                let inner = self.nested_bsdfs(&obj)?;
+                match inner.len() {
+                    0 => return Err(s.err(c, "bsdf 'twosided' needs a nested bsdf")),
+                    1 => {}
+                    2 => self.warn(
+                        s,
+                        c,
+                        "twosided with a different back-side bsdf: the front one is used on \
+                         both sides",
+                    ),
+                    n => {
+                        return Err(s.err(
+                            c,
+                            format!("bsdf 'twosided' takes one or two nested bsdfs, found {n}"),
+                        ))
+                    }
+                }
+                (inner[0].kind.clone(), true)
+            }
+            "blendbsdf" => {
+                let Some(weight) = obj.scalar("weight")? else {
+                    return Err(s.err(c, "bsdf 'blendbsdf' needs a 'weight'"));
+                };
+                if !(0.0..=1.0).contains(&weight) {
+                    return Err(obj.err_param("weight", format!("= {weight} is outside [0, 1]")));
+                }
+                let inner = self.nested_bsdfs(&obj)?;
+                let [a, b] = <[Bsdf; 2]>::try_from(inner).map_err(|v| {
+                    s.err(
+                        c,
+                        format!(
+                            "bsdf 'blendbsdf' needs exactly two nested bsdfs, found {}",
+                            v.len()
+                        ),
+                    )
+                })?;
+                if a.twosided != b.twosided {
+                    self.warn(
+                        s,
+                        c,
+                        "blendbsdf of a one-sided and a two-sided bsdf: the blend is two-sided",
+                    );
+                }
+                let twosided = a.twosided || b.twosided;
+                let kind = BsdfKind::Blend {
+                    weight,
+                    a: Box::new(a.kind),
+                    b: Box::new(b.kind),
+                };
+                (kind, twosided)
+            }
+            "mask" | "bumpmap" | "normalmap" => {
+                obj.mark_all();
+                let inner = self.nested_bsdfs(&obj)?;
+                let Some(first) = inner.into_iter().next() else {
+                    return Err(s.err(c, format!("bsdf '{ty}' needs a nested bsdf")));
+                };
+                self.warn(
+                    s,
+                    c,
+                    format!("bsdf '{ty}' is not supported: its nested bsdf is used alone"),
+                );
+                (first.kind, first.twosided)
+            }
+            "principled" | "principledthin" => {
+                obj.mark_all();
+                let reflectance = obj.reflectance("base_color", 0.5)?;
+                self.warn(
+                    s,
+                    c,
+                    format!("bsdf '{ty}' is not supported: rendered as diffuse with its base_color"),
+                );
+                (BsdfKind::Diffuse { reflectance }, false)
+            }
+            t => {
+                obj.mark_all();
+                self.warn(
+                    s,
+                    c,
+                    format!("bsdf '{t}' is not supported: rendered as diffuse 0.5"),
+                );
+                (Bsdf::default().kind, false)
+            }
+        };
+        self.finish(&obj);
+        let id = self.attr(s, c, "id")?;
+        let b = Bsdf {
+            name: id.unwrap_or(ty),
+            kind,
+            twosided,
+        };
+        self.register(s, c, Target::Bsdf(b.clone()))?;
+        Ok(b)
+    }
+
+    fn rough(&mut self, s: Src, c: Node, ty: &str, smooth: &str) {
+        self.warn(
+            s,
+            c,
+            format!("bsdf '{ty}' is rendered as the smooth '{smooth}' (roughness ignored)"),
+        );
+    }
+
+    /// A conductor as a mirror of constant reflectance.
+    fn conductor(&mut self, s: Src, c: Node, obj: &Obj) -> Result<BsdfKind> {
+        let scale = obj.reflectance("specular_reflectance", 1.0)?;
+        let material = obj.string("material")?;
+        let eta = obj.scalar("eta")?;
+        let k = obj.scalar("k")?;
+        let f0 = if eta.is_some() || k.is_some() {
+            if material.as_deref().is_some_and(|m| m != "none") {
+                return Err(s.err(
+                    c,
+                    "bsdf 'conductor': give either 'material' or 'eta'/'k', not both",
+                ));
+            }
+            let f = parse::fresnel_f0(eta.unwrap_or(0.0), k.unwrap_or(1.0));
+            self.warn(
+                s,
+                c,
+                format!(
+                    "conductor with eta/k rendered as a mirror of constant reflectance {f} \
+                     (its value at normal incidence)"
+                ),
+            );
+            Vec3::splat(f)
+        } else {
+            match material.as_deref().unwrap_or("none") {
+                "none" => Vec3::ONE,
+                m => match parse::conductor_f0(m) {
+                    Some(f0) => {
+                        self.warn(
+                            s,
+                            c,
+                            format!(
+                                "conductor material '{m}' rendered as a mirror of constant \
+                                 reflectance {f0} (its value at normal incidence)"
+                            ),
+                        );
+                        f0
+                    }
+                    None => {
+                        self.warn(
+                            s,
+                            c,
+                            format!(
+                                "conductor material '{m}' is not known to radtrace: rendered \
+                                 as a perfect mirror (reflectance 1)"
+                            ),
+                        );
+                        Vec3::ONE
+                    }
+                },
+            }
+        };
+        Ok(BsdfKind::Conductor {
+            specular_reflectance: scale * f0,
+        })
+    }
+
+    /// The nested bsdfs (elements or refs) of `obj`, in order; other nested
+    /// elements are warned about.
+    fn nested_bsdfs(&mut self, obj: &Obj) -> Result<Vec<Bsdf>> {
+        let mut out = Vec::new();
+        for ch in &obj.children {
+            match ch {
+                Child::Elem(n) if tag(*n) == "bsdf" => out.push(self.bsdf(obj.src, *n)?),
+                Child::Ref {
+                    target: Target::Bsdf(b),
+                    ..
+                } => out.push(b.clone()),
+                Child::Ref { node, id, target } => {
+                    return Err(obj.src.err_attr(
+                        *node,
+                        "id",
+                        format!("id '{id}' names a {}, not a bsdf", target.kind()),
+                    ))
+                }
+                Child::Elem(n) => {
+                    let msg = format!("<{}> inside {} ignored", tag(*n), obj.what);
+                    self.warn(obj.src, *n, msg);
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// The index of `b` in the scene's BSDFs (one entry per id).
+    pub(super) fn add_bsdf(&mut self, b: Bsdf, id: Option<&str>) -> u32 {
+        if let Some(i) = id.and_then(|id| self.bsdf_index.get(id)) {
+            return *i;
+        }
+        let i = self.scene.bsdfs.len() as u32;
+        match id {
+            Some(id) => {
+                self.bsdf_index.insert(id.to_string(), i);
+                self.scene.bsdfs.push(b);
+            }
+            None => self.scene.bsdfs.push(Bsdf {
+                name: format!("{}#{i}", b.name),
+                ..b
+            }),
+        }
+        i
+    }
+
+    pub(super) fn default_bsdf(&mut self) -> u32 {
+        if let Some(i) = self.default_bsdf {
+            return i;
+        }
+        let i = self.scene.bsdfs.len() as u32;
+        self.scene.bsdfs.push(Bsdf::default());
+        self.default_bsdf = Some(i);
+        i
+    }
+}
+
+/// An index of refraction: a number or one of Mitsuba's named materials.
+fn ior(obj: &Obj, name: &str, default: f32) -> Result<f32> {
+    let v = match obj.get(name).map(|p| p.val.clone()) {
+        None => default,
+        Some(Val::Float(v)) => v,
+        Some(Val::Int(i)) => i as f32,
+        Some(Val::Rgb(c)) => c.element_sum() / 3.0,
+        Some(Val::Str(t)) => parse::named_ior(&t).ok_or_else(|| {
+            obj.err_param(
+                name,
+                format!("= '{t}' is not a known material (e.g. 'bk7', 'acrylic glass', 'air')"),
+            )
+        })?,
+        Some(v) => return Err(obj.err_param(name, format!("must be a number or a name, not {}", v.kind()))),
+    };
+    if v <= 0.0 {
+        return Err(obj.err_param(name, format!("= {v} must be positive")));
+    }
+    Ok(v)
+}

@@ -1,0 +1,112 @@
+//! Emitter plugins: `point`, `spot`, and `area` (nested inside a shape).
+
+use glam::{Mat4, Vec3};
+use roxmltree::Node;
+
+use super::document::{Loader, Src};
+use super::properties::Target;
+use crate::scene::{Light, Rgb};
+use crate::Result;
+
+impl Loader {
+    /// An `<emitter>` inside a shape: the radiance of an `area` emitter, or `None`
+    /// (with a warning) for any other type.
+    pub(super) fn area_emitter(&mut self, s: Src, c: Node) -> Result<Option<Rgb>> {
+        self.check_attrs(s, c, &["type", "id", "name"]);
+        let ty = self.attr_req(s, c, "type")?;
+        self.register(s, c, Target::Other("emitter"))?;
+        if ty != "area" {
+            self.warn(
+                s,
+                c,
+                format!("emitter '{ty}' inside a shape ignored (only 'area' belongs there)"),
+            );
+            return Ok(None);
+        }
+        let obj = self.collect(s, c, "emitter 'area'".into())?;
+        let radiance = obj.emission("radiance")?;
+        self.finish(&obj);
+        Ok(Some(radiance))
+    }
+
+    /// Records the `id` of the light just pushed (for tables and messages).
+    fn name_light(&mut self, c: Node) {
+        let i = self.scene.lights.len() - 1;
+        self.scene.light_ids.resize(i, None);
+        self.scene.light_ids.push(c.attribute("id").map(str::to_owned));
+    }
+
+    pub(super) fn emitter(&mut self, s: Src, c: Node) -> Result<()> {
+        self.check_attrs(s, c, &["type", "id", "name"]);
+        let ty = self.attr_req(s, c, "type")?;
+        self.register(s, c, Target::Other("emitter"))?;
+        match ty.as_str() {
+            "point" => {
+                let obj = self.collect(s, c, "emitter 'point'".into())?;
+                let pos = obj.vec3("position")?;
+                let to_world = obj.transform("to_world")?;
+                let position = match (pos, to_world) {
+                    (Some(_), Some(_)) => {
+                        return Err(s.err(
+                            c,
+                            "emitter 'point': give either 'position' or 'to_world', not both",
+                        ))
+                    }
+                    (Some(p), None) => p,
+                    (None, Some(m)) => m.transform_point3(Vec3::ZERO),
+                    (None, None) => Vec3::ZERO,
+                };
+                let intensity = obj.emission("intensity")?;
+                self.finish(&obj);
+                if intensity == Vec3::ZERO {
+                    self.warn(s, c, "point light with zero intensity");
+                }
+                self.scene.lights.push(Light::Point { position, intensity });
+                self.name_light(c);
+            }
+            "spot" => {
+                let obj = self.collect(s, c, "emitter 'spot'".into())?;
+                let m = obj.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+                let position = m.transform_point3(Vec3::ZERO);
+                let axis = m.transform_vector3(Vec3::Z);
+                let direction = axis
+                    .try_normalize()
+                    .ok_or_else(|| obj.err_param("to_world", "maps the spot's axis (+z) to nothing"))?;
+                let intensity = obj.emission("intensity")?;
+                let cutoff = obj.float("cutoff_angle")?.unwrap_or(20.0);
+                if !(cutoff > 0.0 && cutoff <= 180.0) {
+                    return Err(
+                        obj.err_param("cutoff_angle", format!("= {cutoff} degrees is outside (0, 180]"))
+                    );
+                }
+                let beam = obj.float("beam_width")?.unwrap_or(cutoff * 0.75);
+                if !(0.0..=cutoff).contains(&beam) {
+                    return Err(obj.err_param(
+                        "beam_width",
+                        format!("= {beam} degrees is outside [0, cutoff_angle = {cutoff}]"),
+                    ));
+                }
+                if obj.get("texture").is_some() {
+                    self.warn(s, c, "spot light 'texture' is not supported; ignored");
+                }
+                self.finish(&obj);
+                if intensity == Vec3::ZERO {
+                    self.warn(s, c, "spot light with zero intensity");
+                }
+                self.scene.lights.push(Light::Spot {
+                    position,
+                    direction,
+                    intensity,
+                    cutoff_angle: cutoff.to_radians(),
+                    beam_width: beam.to_radians(),
+                });
+                self.name_light(c);
+            }
+            "area" => {
+                return Err(s.err(c, "an 'area' emitter must be nested inside a <shape>"));
+            }
+            t => self.warn(s, c, format!("emitter '{t}' is not supported; ignored")),
+        }
+        Ok(())
+    }
+}

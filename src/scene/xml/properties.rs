@@ -1,0 +1,337 @@
+//! Plugin properties: their values (`<float>`, `<integer>`, `<boolean>`,
+//! `<string>`, `<rgb>`, `<spectrum>`, `<point>`, `<vector>`, `<transform>`,
+//! `<texture>`), `<ref>`s to earlier objects, and a plugin's properties and nested
+//! objects ([`Obj`]) with the bookkeeping that finds parameters nobody asked for.
+
+use std::cell::Cell;
+use std::fmt::Display;
+use std::path::PathBuf;
+
+use glam::{Mat4, Vec3};
+use roxmltree::Node;
+
+use super::document::{tag, Loader, Src};
+use super::parse;
+use crate::error::Error;
+use crate::scene::{Bsdf, Rgb};
+use crate::Result;
+
+/// What an `id` names.
+#[derive(Debug, Clone)]
+pub(super) enum Target {
+    Bsdf(Bsdf),
+    /// A texture reduced to one colour, or `None` (the parameter keeps its default).
+    Texture(Option<Rgb>),
+    Other(&'static str),
+}
+
+impl Target {
+    pub(super) fn kind(&self) -> &'static str {
+        match self {
+            Target::Bsdf(_) => "bsdf",
+            Target::Texture(_) => "texture",
+            Target::Other(k) => k,
+        }
+    }
+}
+
+/// A parsed property value.
+#[derive(Debug, Clone)]
+pub(super) enum Val {
+    Float(f32),
+    Int(i64),
+    Bool(bool),
+    Str(String),
+    Rgb(Rgb),
+    Vec3(Vec3),
+    Transform(Mat4),
+    Texture(Option<Rgb>),
+}
+
+impl Val {
+    pub(super) fn kind(&self) -> &'static str {
+        match self {
+            Val::Float(_) => "a float",
+            Val::Int(_) => "an integer",
+            Val::Bool(_) => "a boolean",
+            Val::Str(_) => "a string",
+            Val::Rgb(_) => "a colour",
+            Val::Vec3(_) => "a point/vector",
+            Val::Transform(_) => "a transform",
+            Val::Texture(_) => "a texture",
+        }
+    }
+}
+
+pub(super) struct Prop<'a, 'i> {
+    name: String,
+    pub(super) val: Val,
+    node: Node<'a, 'i>,
+    used: Cell<bool>,
+}
+
+/// A nested object of a plugin: an element, or a `<ref>` already resolved.
+pub(super) enum Child<'a, 'i> {
+    Elem(Node<'a, 'i>),
+    Ref {
+        node: Node<'a, 'i>,
+        id: String,
+        target: Target,
+    },
+}
+
+/// A plugin's properties and nested objects, with the bookkeeping that finds
+/// parameters nobody asked for.
+pub(super) struct Obj<'a, 'i> {
+    pub(super) src: Src<'a, 'i>,
+    node: Node<'a, 'i>,
+    /// E.g. "shape 'sphere'", for messages.
+    pub(super) what: String,
+    props: Vec<Prop<'a, 'i>>,
+    pub(super) children: Vec<Child<'a, 'i>>,
+}
+
+impl<'a, 'i> Obj<'a, 'i> {
+    /// The property `name`, marked as used.
+    pub(super) fn get(&self, name: &str) -> Option<&Prop<'a, 'i>> {
+        let p = self.props.iter().find(|p| p.name == name)?;
+        p.used.set(true);
+        Some(p)
+    }
+
+    pub(super) fn mark_all(&self) {
+        for p in &self.props {
+            p.used.set(true);
+        }
+    }
+
+    /// An error about parameter `name` (at its element, or at the object's).
+    pub(super) fn err_param(&self, name: &str, msg: impl Display) -> Error {
+        let node = self
+            .props
+            .iter()
+            .find(|p| p.name == name)
+            .map_or(self.node, |p| p.node);
+        self.src
+            .err(node, format!("{}: parameter '{name}' {msg}", self.what))
+    }
+
+    pub(super) fn mismatch(&self, p: &Prop, want: &str) -> Error {
+        self.err_param(&p.name, format!("must be {want}, not {}", p.val.kind()))
+    }
+
+    /// Property `name` if present, as the type `pick` accepts (`want` names it in
+    /// the error when the property has another type).
+    fn typed<T>(&self, name: &str, want: &str, pick: impl Fn(&Val) -> Option<T>) -> Result<Option<T>> {
+        match self.get(name) {
+            None => Ok(None),
+            Some(p) => pick(&p.val).map(Some).ok_or_else(|| self.mismatch(p, want)),
+        }
+    }
+
+    pub(super) fn float(&self, name: &str) -> Result<Option<f32>> {
+        self.typed(name, "a float", |v| match *v {
+            Val::Float(f) => Some(f),
+            Val::Int(i) => Some(i as f32),
+            _ => None,
+        })
+    }
+
+    pub(super) fn int(&self, name: &str) -> Result<Option<i64>> {
+        self.typed(name, "an integer", |v| match *v {
+            Val::Int(i) => Some(i),
+            _ => None,
+        })
+    }
+
+    pub(super) fn boolean(&self, name: &str, default: bool) -> Result<bool> {
+        let b = self.typed(name, "a boolean", |v| match *v {
+            Val::Bool(b) => Some(b),
+            _ => None,
+        })?;
+        Ok(b.unwrap_or(default))
+    }
+
+    pub(super) fn string(&self, name: &str) -> Result<Option<String>> {
+        self.typed(name, "a string", |v| match v {
+            Val::Str(s) => Some(s.clone()),
+            _ => None,
+        })
+    }
+
+    pub(super) fn vec3(&self, name: &str) -> Result<Option<Vec3>> {
+        self.typed(name, "a point", |v| match *v {
+            Val::Vec3(p) => Some(p),
+            _ => None,
+        })
+    }
+
+    pub(super) fn transform(&self, name: &str) -> Result<Option<Mat4>> {
+        self.typed(name, "a transform", |v| match *v {
+            Val::Transform(m) => Some(m),
+            _ => None,
+        })
+    }
+}
+
+impl Loader {
+    /// Reads the properties and nested objects of a plugin element.
+    pub(super) fn collect<'a, 'i>(
+        &mut self,
+        s: Src<'a, 'i>,
+        node: Node<'a, 'i>,
+        what: String,
+    ) -> Result<Obj<'a, 'i>> {
+        let mut obj = Obj {
+            src: s,
+            node,
+            what,
+            props: Vec::new(),
+            children: Vec::new(),
+        };
+        for c in node.children().filter(Node::is_element) {
+            let t = tag(c);
+            match t {
+                "float" | "integer" | "boolean" | "string" | "rgb" | "spectrum" | "point" | "vector"
+                | "transform" => {
+                    let name = self.attr_req(s, c, "name")?;
+                    let val = self.value(s, c, t)?;
+                    push_prop(&mut obj, name, val, c)?;
+                }
+                "texture" => {
+                    let name = self.attr_req(s, c, "name")?;
+                    let v = self.texture(s, c)?;
+                    push_prop(&mut obj, name, Val::Texture(v), c)?;
+                }
+                "ref" => {
+                    self.check_attrs(s, c, &["id", "name"]);
+                    let id = self.attr_req(s, c, "id")?;
+                    let Some((target, _)) = self.ids.get(&id).cloned() else {
+                        return Err(s.err_attr(
+                            c,
+                            "id",
+                            format!("unknown id '{id}' (a <ref> must follow the object it names)"),
+                        ));
+                    };
+                    match target {
+                        Target::Texture(v) => {
+                            let Some(name) = self.attr(s, c, "name")? else {
+                                return Err(s.err(
+                                    c,
+                                    format!("<ref> to texture '{id}' needs a 'name' (the parameter)"),
+                                ));
+                            };
+                            push_prop(&mut obj, name, Val::Texture(v), c)?;
+                        }
+                        target => obj.children.push(Child::Ref { node: c, id, target }),
+                    }
+                }
+                "default" => self.default(s, c)?,
+                "bsdf" | "emitter" | "shape" | "sensor" | "film" | "sampler" | "rfilter" | "medium"
+                | "phase" | "integrator" | "volume" => obj.children.push(Child::Elem(c)),
+                "include" => self.warn(
+                    s,
+                    c,
+                    "<include> is only supported directly inside <scene>; ignored",
+                ),
+                t => {
+                    let what = obj.what.clone();
+                    self.warn(s, c, format!("unknown element <{t}> in {what} ignored"));
+                }
+            }
+        }
+        Ok(obj)
+    }
+
+    /// Warns about every parameter of `obj` that no one read.
+    pub(super) fn finish(&mut self, obj: &Obj) {
+        for p in &obj.props {
+            if !p.used.get() {
+                self.warn(
+                    obj.src,
+                    p.node,
+                    format!("unknown parameter '{}' of {} ignored", p.name, obj.what),
+                );
+            }
+        }
+    }
+
+    /// Parses a property element's value.
+    fn value(&mut self, s: Src, c: Node, t: &str) -> Result<Val> {
+        let at = |msg: String| s.err_attr(c, "value", format!("<{t}>: {msg}"));
+        match t {
+            "float" | "integer" | "boolean" | "string" | "rgb" => {
+                self.check_attrs(s, c, &["name", "value"]);
+                let v = self.attr_req(s, c, "value")?;
+                Ok(match t {
+                    "float" => Val::Float(parse::number(&v).map_err(at)?),
+                    "integer" => Val::Int(parse::integer(&v).map_err(at)?),
+                    "boolean" => Val::Bool(parse::boolean(&v).map_err(at)?),
+                    "string" => Val::Str(v),
+                    _ => Val::Rgb(parse::one_or_three(&v).map_err(at)?),
+                })
+            }
+            "spectrum" => self.spectrum(s, c),
+            "point" | "vector" => {
+                self.check_attrs(s, c, &["name", "value", "x", "y", "z"]);
+                Ok(Val::Vec3(self.xyz(s, c, 0.0)?))
+            }
+            _ => {
+                self.check_attrs(s, c, &["name"]);
+                Ok(Val::Transform(self.transform(s, c)?))
+            }
+        }
+    }
+
+    /// `x`/`y`/`z` attributes (missing ones take `default`) or `value` (1 or 3
+    /// numbers), as Mitsuba's points, vectors and transform operations.
+    pub(super) fn xyz(&self, s: Src, c: Node, default: f32) -> Result<Vec3> {
+        if let Some(v) = self.attr(s, c, "value")? {
+            if ["x", "y", "z"].iter().any(|a| c.attribute(*a).is_some()) {
+                return Err(s.err(
+                    c,
+                    format!("<{}>: give either 'value' or 'x'/'y'/'z', not both", tag(c)),
+                ));
+            }
+            return parse::one_or_three(&v).map_err(|m| s.err_attr(c, "value", format!("<{}>: {m}", tag(c))));
+        }
+        let mut out = Vec3::splat(default);
+        for (k, a) in ["x", "y", "z"].into_iter().enumerate() {
+            if let Some(v) = self.attr(s, c, a)? {
+                out[k] = parse::number(&v).map_err(|m| s.err_attr(c, a, format!("<{}>: {m}", tag(c))))?;
+            }
+        }
+        Ok(out)
+    }
+
+    /// A path parameter (`filename`) that must name an existing file.
+    pub(super) fn file_param(&self, obj: &Obj, name: &str) -> Result<(PathBuf, String)> {
+        let Some(fname) = obj.string(name)? else {
+            return Err(obj.src.err(obj.node, format!("{}: missing '{name}'", obj.what)));
+        };
+        let path = self.resolve(obj.src, &fname);
+        if path.is_dir() {
+            return Err(obj.err_param(name, format!("= '{fname}' is a directory, not a file")));
+        }
+        if !path.exists() {
+            return Err(obj.err_param(name, format!("= '{fname}': no such file ({})", path.display())));
+        }
+        Ok((path, fname))
+    }
+}
+
+/// Adds a property, refusing a second one of the same name.
+fn push_prop<'a, 'i>(obj: &mut Obj<'a, 'i>, name: String, val: Val, node: Node<'a, 'i>) -> Result<()> {
+    if obj.props.iter().any(|p| p.name == name) {
+        return Err(obj
+            .src
+            .err(node, format!("{}: parameter '{name}' given twice", obj.what)));
+    }
+    obj.props.push(Prop {
+        name,
+        val,
+        node,
+        used: Cell::new(false),
+    });
+    Ok(())
+}

@@ -1,0 +1,198 @@
+//! Sensor plugins (`perspective`; `thinlens` and others as perspective) with their
+//! film and sampler.
+
+use glam::{Mat3, Mat4};
+use roxmltree::Node;
+
+use super::document::{tag, Loader, Src};
+use super::parse;
+use super::properties::{Child, Target, Val};
+use crate::scene::{FovAxis, Sensor};
+use crate::Result;
+
+impl Loader {
+    pub(super) fn sensor(&mut self, s: Src, c: Node) -> Result<()> {
+        self.check_attrs(s, c, &["type", "id", "name"]);
+        let ty = self.attr_req(s, c, "type")?;
+        self.register(s, c, Target::Other("sensor"))?;
+        let obj = self.collect(s, c, format!("sensor '{ty}'"))?;
+        match ty.as_str() {
+            "perspective" => {}
+            "thinlens" => {
+                obj.get("aperture_radius");
+                self.warn(
+                    s,
+                    c,
+                    "sensor 'thinlens' rendered as 'perspective' (depth of field is ignored)",
+                );
+            }
+            t => {
+                obj.mark_all();
+                self.warn(
+                    s,
+                    c,
+                    format!("sensor '{t}' is not supported: treated as 'perspective'"),
+                );
+            }
+        }
+        let to_world = obj.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+        let l = Mat3::from_mat4(to_world);
+        let orthonormal = (l.transpose() * l - Mat3::IDENTITY)
+            .to_cols_array()
+            .iter()
+            .all(|v| v.abs() < 1e-3);
+        if !orthonormal {
+            self.warn(
+                s,
+                c,
+                "the sensor's to_world scales or shears (Mitsuba refuses this)",
+            );
+        }
+
+        let (fov, fov_axis) = match (obj.get("fov").is_some(), obj.get("focal_length").is_some()) {
+            (true, true) => return Err(s.err(c, "sensor: give either 'fov' or 'focal_length', not both")),
+            (true, false) => {
+                let fov = obj.float("fov")?.unwrap_or(0.0);
+                let axis = obj.string("fov_axis")?.unwrap_or_else(|| "x".into());
+                let axis = match axis.to_ascii_lowercase().as_str() {
+                    "x" => FovAxis::X,
+                    "y" => FovAxis::Y,
+                    "diagonal" => FovAxis::Diagonal,
+                    "smaller" => FovAxis::Smaller,
+                    "larger" => FovAxis::Larger,
+                    _ => {
+                        return Err(obj.err_param(
+                            "fov_axis",
+                            format!("= '{axis}': expected x, y, diagonal, smaller or larger"),
+                        ))
+                    }
+                };
+                (fov, axis)
+            }
+            (false, _) => {
+                // Mitsuba's default is a 50 mm lens on 35 mm film, along the diagonal.
+                let f = match obj.get("focal_length").map(|p| p.val.clone()) {
+                    None => 50.0,
+                    Some(Val::Float(v)) => v,
+                    Some(Val::Int(i)) => i as f32,
+                    Some(Val::Str(t)) => {
+                        let t = t.trim();
+                        parse::number(t.strip_suffix("mm").unwrap_or(t)).map_err(|_| {
+                            obj.err_param(
+                                "focal_length",
+                                format!("= '{t}': expected a length such as '50mm'"),
+                            )
+                        })?
+                    }
+                    Some(v) => {
+                        return Err(obj.err_param(
+                            "focal_length",
+                            format!("must be a string such as '50mm', not {}", v.kind()),
+                        ))
+                    }
+                };
+                if f <= 0.0 {
+                    return Err(obj.err_param("focal_length", "must be positive"));
+                }
+                obj.get("fov_axis");
+                let diag = (36.0f32 * 36.0 + 24.0 * 24.0).sqrt();
+                ((diag / (2.0 * f)).atan().to_degrees() * 2.0, FovAxis::Diagonal)
+            }
+        };
+        if !(fov > 0.0 && fov < 180.0) {
+            return Err(obj.err_param("fov", format!("= {fov} degrees is outside (0, 180)")));
+        }
+        let near_clip = obj.float("near_clip")?.unwrap_or(0.01);
+        let far_clip = obj.float("far_clip")?.unwrap_or(10000.0);
+        if near_clip <= 0.0 {
+            return Err(obj.err_param("near_clip", "must be positive"));
+        }
+        if near_clip >= far_clip {
+            return Err(obj.err_param("near_clip", "must be smaller than far_clip"));
+        }
+        for p in ["focus_distance", "shutter_open", "shutter_close", "srf"] {
+            obj.get(p);
+        }
+        for p in ["principal_point_offset_x", "principal_point_offset_y"] {
+            if obj.float(p)?.is_some_and(|v| v != 0.0) {
+                self.warn(s, c, format!("sensor '{p}' is not supported; ignored"));
+            }
+        }
+
+        let (mut width, mut height, mut spp) = (768, 576, None);
+        let (mut film_seen, mut sampler_seen) = (false, false);
+        for ch in &obj.children {
+            match ch {
+                Child::Elem(n) if tag(*n) == "film" => {
+                    if film_seen {
+                        return Err(s.err(*n, "a sensor takes one <film>"));
+                    }
+                    film_seen = true;
+                    (width, height) = self.film(s, *n)?;
+                }
+                Child::Elem(n) if tag(*n) == "sampler" => {
+                    if sampler_seen {
+                        return Err(s.err(*n, "a sensor takes one <sampler>"));
+                    }
+                    sampler_seen = true;
+                    spp = self.sampler(s, *n)?;
+                }
+                Child::Elem(n) => {
+                    let msg = format!("<{}> inside sensor ignored", tag(*n));
+                    self.warn(s, *n, msg);
+                }
+                Child::Ref { node, id, .. } => {
+                    let msg = format!("<ref id=\"{id}\"> inside sensor ignored");
+                    self.warn(s, *node, msg);
+                }
+            }
+        }
+        self.finish(&obj);
+        self.scene.sensors.push(Sensor {
+            to_world,
+            fov,
+            fov_axis,
+            width,
+            height,
+            near_clip,
+            far_clip,
+            spp,
+        });
+        Ok(())
+    }
+
+    /// The film's size; its other settings are Mitsuba's business.
+    fn film(&mut self, s: Src, c: Node) -> Result<(u32, u32)> {
+        self.check_attrs(s, c, &["type", "id", "name"]);
+        let ty = self.attr_req(s, c, "type")?;
+        self.register(s, c, Target::Other("film"))?;
+        if ty != "hdrfilm" {
+            self.warn(s, c, format!("film '{ty}': only its width and height are used"));
+        }
+        let obj = self.collect(s, c, format!("film '{ty}'"))?;
+        let size = |name: &str, default: i64| -> Result<u32> {
+            let v = obj.int(name)?.unwrap_or(default);
+            if !(1..=16384).contains(&v) {
+                return Err(obj.err_param(name, format!("= {v} is outside [1, 16384]")));
+            }
+            Ok(v as u32)
+        };
+        let w = size("width", 768)?;
+        let h = size("height", 576)?;
+        obj.mark_all();
+        Ok((w, h))
+    }
+
+    fn sampler(&mut self, s: Src, c: Node) -> Result<Option<u32>> {
+        self.check_attrs(s, c, &["type", "id", "name"]);
+        self.register(s, c, Target::Other("sampler"))?;
+        let obj = self.collect(s, c, "sampler".into())?;
+        let spp = match obj.int("sample_count")? {
+            None => None,
+            Some(n) if (1..=u32::MAX as i64).contains(&n) => Some(n as u32),
+            Some(n) => return Err(obj.err_param("sample_count", format!("= {n} must be positive"))),
+        };
+        obj.mark_all();
+        Ok(spp)
+    }
+}

@@ -1,0 +1,191 @@
+//! Shape plugins: `obj`, `ply`, `bezier` (radtrace's `.bpt` files), `rectangle`,
+//! `cube`, `disk` and `sphere`, with their bsdf and area emitter.
+
+use glam::{Mat3, Vec3};
+use roxmltree::Node;
+
+use super::document::{tag, Loader, Src};
+use super::properties::{Child, Target};
+use crate::geometry::obj::read_obj;
+use crate::geometry::ply::read_ply;
+use crate::geometry::{bezier, shapes, TriMesh};
+use crate::scene::{Light, Rgb, Shape};
+use crate::Result;
+
+impl Loader {
+    pub(super) fn shape(&mut self, s: Src, c: Node) -> Result<()> {
+        self.check_attrs(s, c, &["type", "id", "name"]);
+        let ty = self.attr_req(s, c, "type")?;
+        let id = self.attr(s, c, "id")?;
+        self.register(s, c, Target::Other("shape"))?;
+        let index = self.scene.shapes.len();
+        let obj = self.collect(s, c, format!("shape '{ty}'"))?;
+        let (mut mesh, auto_name): (TriMesh, String) = match ty.as_str() {
+            "obj" | "ply" => {
+                let (path, fname) = self.file_param(&obj, "filename")?;
+                let face_normals = obj.boolean("face_normals", false)?;
+                obj.get("flip_tex_coords");
+                let mesh = if ty == "obj" {
+                    read_obj(&path, face_normals)?
+                } else {
+                    read_ply(&path, face_normals)?
+                };
+                (mesh, format!("{ty}:{fname}"))
+            }
+            "bezier" => {
+                let (path, fname) = self.file_param(&obj, "filename")?;
+                let level = |name: &str, default: i64| -> Result<u32> {
+                    let v = obj.int(name)?.unwrap_or(default);
+                    if !(1..=256).contains(&v) {
+                        return Err(obj.err_param(name, format!("= {v} is outside [1, 256]")));
+                    }
+                    Ok(v as u32)
+                };
+                let coarse = level("coarse", 4)?;
+                let fine = level("fine", 8)?;
+                let patches = bezier::read_bpt(&path)?;
+                let tris = bezier::tessellated_triangles(patches.len(), coarse, fine);
+                if tris > bezier::MAX_TESSELLATED_TRIANGLES {
+                    return Err(obj.err_param(
+                        "fine",
+                        format!(
+                            "{} patches at coarse {coarse} x fine {fine} would make {tris} triangles \
+                             (at most {})",
+                            patches.len(),
+                            bezier::MAX_TESSELLATED_TRIANGLES
+                        ),
+                    ));
+                }
+                (
+                    bezier::tessellate(&patches, coarse, fine),
+                    format!("bezier:{fname}"),
+                )
+            }
+            "rectangle" => (shapes::rectangle(), format!("rectangle#{index}")),
+            "cube" => (shapes::cube(), format!("cube#{index}")),
+            "disk" => (shapes::disk(), format!("disk#{index}")),
+            "sphere" => {
+                let center = obj.vec3("center")?.unwrap_or(Vec3::ZERO);
+                let radius = obj.float("radius")?.unwrap_or(1.0);
+                if radius <= 0.0 {
+                    return Err(obj.err_param("radius", format!("= {radius} must be positive")));
+                }
+                (shapes::sphere(center, radius), format!("sphere#{index}"))
+            }
+            t => {
+                obj.mark_all();
+                self.warn(s, c, format!("unknown shape type '{t}' ignored"));
+                return Ok(());
+            }
+        };
+        let name = id.clone().unwrap_or(auto_name);
+
+        if let Some(m) = obj.transform("to_world")? {
+            let l = Mat3::from_mat4(m);
+            let det = l.determinant();
+            if det == 0.0 || !det.is_finite() {
+                return Err(obj.err_param("to_world", "is singular (it flattens the shape)"));
+            }
+            if ty == "sphere" {
+                let (x, y, z) = (l.x_axis, l.y_axis, l.z_axis);
+                let tol = 1e-4 * x.length();
+                let uniform = (x.length() - y.length()).abs() <= tol
+                    && (x.length() - z.length()).abs() <= tol
+                    && x.dot(y).abs() <= tol * x.length()
+                    && x.dot(z).abs() <= tol * x.length()
+                    && y.dot(z).abs() <= tol * x.length();
+                if !uniform {
+                    self.warn(
+                        s,
+                        c,
+                        "sphere with a non-uniform to_world: radtrace renders an ellipsoid, \
+                         Mitsuba a sphere",
+                    );
+                }
+            }
+            mesh.transform(&m);
+        }
+        if obj.boolean("flip_normals", false)? {
+            mesh.flip_normals();
+        }
+        mesh.validate()
+            .map_err(|e| s.err(c, format!("shape '{name}': invalid mesh: {e}")))?;
+        if mesh.triangle_count() == 0 {
+            self.warn(s, c, format!("shape '{name}' has no triangles"));
+        }
+
+        let mut bsdf = None;
+        let mut emitter: Option<(Rgb, Node)> = None;
+        for ch in &obj.children {
+            match ch {
+                Child::Elem(n) if tag(*n) == "bsdf" => {
+                    if bsdf.is_some() {
+                        return Err(s.err(*n, format!("shape '{name}' has more than one bsdf")));
+                    }
+                    let b = self.bsdf(s, *n)?;
+                    let bid = self.attr(s, *n, "id")?;
+                    bsdf = Some(self.add_bsdf(b, bid.as_deref()));
+                }
+                Child::Ref {
+                    node,
+                    id,
+                    target: Target::Bsdf(b),
+                } => {
+                    if bsdf.is_some() {
+                        return Err(s.err(*node, format!("shape '{name}' has more than one bsdf")));
+                    }
+                    bsdf = Some(self.add_bsdf(b.clone(), Some(id)));
+                }
+                Child::Ref { node, id, target } => {
+                    return Err(s.err_attr(
+                        *node,
+                        "id",
+                        format!("id '{id}' names a {}, not a bsdf", target.kind()),
+                    ))
+                }
+                Child::Elem(n) if tag(*n) == "emitter" => {
+                    if let Some(r) = self.area_emitter(s, *n)? {
+                        if emitter.is_some() {
+                            return Err(s.err(*n, format!("shape '{name}' has more than one area emitter")));
+                        }
+                        emitter = Some((r, *n));
+                    }
+                }
+                Child::Elem(n) => {
+                    let msg = format!("<{}> inside shape '{name}' ignored", tag(*n));
+                    self.warn(s, *n, msg);
+                }
+            }
+        }
+        self.finish(&obj);
+
+        let bsdf = match bsdf {
+            Some(b) => b,
+            None => self.default_bsdf(),
+        };
+        let light = match emitter {
+            None => None,
+            Some((radiance, n)) => {
+                let area = mesh.area();
+                if !(area > 0.0 && area.is_finite()) {
+                    return Err(s.err(n, format!("area emitter on shape '{name}', which has zero area")));
+                }
+                if radiance == Vec3::ZERO {
+                    self.warn(s, n, format!("area emitter on '{name}' has zero radiance"));
+                }
+                self.scene.lights.push(Light::Area {
+                    shape: index as u32,
+                    radiance,
+                });
+                Some(self.scene.lights.len() as u32 - 1)
+            }
+        };
+        self.scene.shapes.push(Shape {
+            name,
+            mesh,
+            bsdf,
+            emitter: light,
+        });
+        Ok(())
+    }
+}
