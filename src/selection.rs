@@ -475,9 +475,13 @@ pub fn select<'a>(
                 .filter(|(_, s)| matches!(s, SourceId::Light(_)))
                 .map(|&(_, s)| (s, area_rays(s)))
                 .collect();
+            // Only where the solve kept a source apart: where it was folded into the
+            // general radiosity, its light is already there (one route per source).
             (0..np)
                 .map(|p| {
-                    let mut v = lights.clone();
+                    let listed = |s: SourceId| sol.lists[p].iter().any(|e| e.source == s);
+                    let mut v: Vec<(SourceId, u32)> =
+                        lights.iter().copied().filter(|&(s, _)| listed(s)).collect();
                     for e in &sol.lists[p] {
                         if matches!(e.source, SourceId::Patch(_)) && ranked.iter().any(|r| r.1 == e.source) {
                             v.push((e.source, area_rays(e.source)));

@@ -170,3 +170,38 @@ fn a_selected_radiant_patch_gives_the_light_it_stored() {
         .sum();
     assert!(patch_rays > 0);
 }
+
+/// `global` ray traces a source only where the solve kept it apart: with one source
+/// kept per patch (of two lights), the other one is in the general radiosity there and
+/// must not be ray traced on top of it.
+#[test]
+fn global_traces_a_light_only_where_it_is_kept_apart() {
+    // The lamp as strong as the point light, so that each is kept apart on some
+    // patches and folded on others.
+    let mut s = room();
+    assert_eq!(s.lights.len(), 2);
+    if let crate::scene::Light::Area { radiance, .. } = &mut s.lights[1] {
+        *radiance = Vec3::splat(40.0);
+    }
+    let bvh = Bvh::build(&s);
+    let sol = solve(&s, &bvh, &solve_settings(0.1, 1), &crate::progress::Silent);
+    let st = SelectSettings {
+        area_samples: 16,
+        global_sources: 1000,
+        ..Default::default()
+    };
+    let twopass = select(&s, &sol, Method::Twopass, &st, None).unwrap();
+    let global = select(&s, &sol, Method::Global, &st, None).unwrap();
+    for p in 0..sol.mesh.patches.len() {
+        for k in global.picks(p as u32) {
+            let id = global.sources[k.source as usize];
+            assert!(
+                sol.lists[p].iter().any(|e| e.source == id),
+                "patch {p}: {id:?} not listed"
+            );
+        }
+    }
+    let a = image_mean(&draw(&s, &bvh, &settings(Method::Twopass), Some(&twopass)).image);
+    let b = image_mean(&draw(&s, &bvh, &settings(Method::Global), Some(&global)).image);
+    assert!((a - b).abs() < 0.03 * a, "twopass {a} vs global {b}");
+}
