@@ -164,6 +164,91 @@ impl SampleBuffer {
     }
 }
 
+/// A film that accumulates filter-weighted sums of samples as they come (the uniform
+/// sampler's), so that memory follows the pixels, not the samples: rows
+/// `first_row..first_row + rows` of a `width`-pixel image. A sample splats onto the
+/// pixels within the filter's reach of its own pixel, with the weights
+/// [`SampleBuffer::reconstruct`] would give it (for `share`, its pixel's samples).
+#[derive(Debug, Clone)]
+pub struct Film {
+    width: u32,
+    first_row: i64,
+    rows: u32,
+    filter: Filter,
+    sum: Vec<Vec3>,
+    weight: Vec<f32>,
+}
+
+impl Film {
+    /// An empty film for rows `first_row..first_row + rows` (rows outside the image
+    /// are kept too, and dropped when merged).
+    pub fn new(width: u32, first_row: i64, rows: u32, filter: Filter) -> Self {
+        let n = (width * rows) as usize;
+        Film {
+            width,
+            first_row,
+            rows,
+            filter,
+            sum: vec![Vec3::ZERO; n],
+            weight: vec![0.0; n],
+        }
+    }
+
+    /// The strip of rows that the samples taken in image rows `y0..y1` reach.
+    pub fn for_rows(width: u32, y0: u32, y1: u32, filter: Filter) -> Self {
+        let reach = filter.radius().ceil() as i64;
+        Film::new(width, y0 as i64 - reach, (y1 - y0) + 2 * reach as u32, filter)
+    }
+
+    /// Adds sample `s`, whose pixel holds `1 / share` samples, within an image of
+    /// `height` rows.
+    pub fn add(&mut self, s: &FilmSample, share: f32, height: u32) {
+        let reach = self.filter.radius().ceil() as i64;
+        let px = (s.x.max(0.0) as i64).min(self.width as i64 - 1);
+        let py = (s.y.max(0.0) as i64).min(height as i64 - 1);
+        let y_lo = (py - reach).max(0).max(self.first_row);
+        let y_hi = (py + reach)
+            .min(height as i64 - 1)
+            .min(self.first_row + self.rows as i64 - 1);
+        for y in y_lo..=y_hi {
+            let wy = self.filter.eval(s.y - (y as f32 + 0.5));
+            let row = ((y - self.first_row) * self.width as i64) as usize;
+            for x in (px - reach).max(0)..=(px + reach).min(self.width as i64 - 1) {
+                let wgt = self.filter.eval(s.x - (x as f32 + 0.5)) * wy * share;
+                if wgt > 0.0 {
+                    self.sum[row + x as usize] += s.value * wgt;
+                    self.weight[row + x as usize] += wgt;
+                }
+            }
+        }
+    }
+
+    /// Adds the sums of `other` (a strip of the same width) where the rows overlap.
+    pub fn merge(&mut self, other: &Film) {
+        let w = self.width as usize;
+        for r in 0..other.rows as i64 {
+            let y = other.first_row + r;
+            if y < self.first_row || y >= self.first_row + self.rows as i64 {
+                continue;
+            }
+            let (a, b) = (((y - self.first_row) as usize) * w, r as usize * w);
+            for x in 0..w {
+                self.sum[a + x] += other.sum[b + x];
+                self.weight[a + x] += other.weight[b + x];
+            }
+        }
+    }
+
+    /// The pixels: weighted sums over weights (black where no sample reached).
+    pub fn image(&self) -> Image {
+        let mut img = Image::new(self.width, self.rows);
+        for (px, (s, &w)) in img.pixels.iter_mut().zip(self.sum.iter().zip(&self.weight)) {
+            *px = if w > 0.0 { *s / w } else { Vec3::ZERO };
+        }
+        img
+    }
+}
+
 fn pixel_index(s: &FilmSample, width: u32, height: u32) -> usize {
     let x = (s.x.max(0.0) as u32).min(width - 1);
     let y = (s.y.max(0.0) as u32).min(height - 1);
@@ -231,5 +316,42 @@ mod tests {
         ]];
         let img = SampleBuffer::from_rows(2, 1, rows).reconstruct(Filter::Box);
         assert_eq!(img.pixels, vec![Vec3::splat(0.5), Vec3::splat(4.0)]);
+    }
+
+    /// The film's running sums give the image the kept samples give, strip by strip
+    /// as the uniform sampler merges them (varied values, both filters, 3 per pixel).
+    #[test]
+    fn film_strips_sum_to_the_reconstruction_of_the_kept_samples() {
+        let (w, h, spp) = (9u32, 6u32, 3u32);
+        let sample = |x: u32, y: u32, k: u32| {
+            let t = (x * 7 + y * 13 + k * 5) as f32;
+            FilmSample {
+                x: x as f32 + (0.1 + 0.37 * k as f32).fract(),
+                y: y as f32 + (0.8 - 0.29 * k as f32).rem_euclid(1.0),
+                value: Vec3::new(t.sin().abs(), (0.3 * t).cos().abs(), 0.01 * t),
+            }
+        };
+        let rows: Vec<Vec<FilmSample>> = (0..h)
+            .map(|y| {
+                (0..w)
+                    .flat_map(|x| (0..spp).map(move |k| sample(x, y, k)))
+                    .collect()
+            })
+            .collect();
+        for f in [Filter::Box, Filter::Gaussian] {
+            let want = SampleBuffer::from_rows(w, h, rows.clone()).reconstruct(f);
+            let mut film = Film::new(w, 0, h, f);
+            for (y, row) in rows.iter().enumerate() {
+                let mut strip = Film::for_rows(w, y as u32, y as u32 + 1, f);
+                for s in row {
+                    strip.add(s, 1.0 / spp as f32, h);
+                }
+                film.merge(&strip);
+            }
+            let got = film.image();
+            for (a, b) in got.pixels.iter().zip(&want.pixels) {
+                assert!((*a - *b).abs().max_element() < 1e-5, "{f:?}: {a} vs {b}");
+            }
+        }
     }
 }

@@ -30,7 +30,7 @@ pub use counters::{Counters, LevelStats};
 
 pub use crate::selection::Method;
 pub use adaptive::{Refine, SampleSet};
-pub use film::{FilmSample, Filter, SampleBuffer};
+pub use film::{Film, FilmSample, Filter, SampleBuffer};
 pub use shading::Tracer;
 
 /// How the image is sampled.
@@ -152,12 +152,16 @@ fn render_uniform(tracer: &Tracer, camera: &Camera, settings: &Settings, progres
     progress.start("render", h as u64);
     let start = Instant::now();
     // One row per task (see adaptive.rs: rayon's larger pieces unbalance the threads).
-    let rows: Vec<(Vec<FilmSample>, Counters)> = (0..h)
+    // Each row's samples go straight into a strip of film (the rows its filter
+    // reaches), and the strips are added in row order: memory follows the pixels,
+    // whatever the samples per pixel, and the image does not depend on the threads.
+    let share = 1.0 / settings.spp.max(1) as f32;
+    let rows: Vec<(Film, Counters)> = (0..h)
         .into_par_iter()
         .with_max_len(1)
         .map(|y| {
             let mut counters = Counters::with_sources(tracer.source_count());
-            let mut samples = Vec::with_capacity((w * settings.spp) as usize);
+            let mut strip = Film::for_rows(w, y, y + 1, settings.filter);
             for x in 0..w {
                 let pixel_seed = pixel_seed(settings.seed, settings.view as u64, x, y);
                 for k in 0..settings.spp {
@@ -170,24 +174,24 @@ fn render_uniform(tracer: &Tracer, camera: &Camera, settings: &Settings, progres
                     counters.primary_rays += 1;
                     let path_seed = hash32(pixel_seed ^ k.wrapping_mul(0x9E37_79B9));
                     let value = tracer.radiance(&ray, 0, path_seed, &mut counters);
-                    samples.push(FilmSample { x: fx, y: fy, value });
+                    strip.add(&FilmSample { x: fx, y: fy, value }, share, h);
                 }
             }
             progress.advance(1);
-            (samples, counters)
+            (strip, counters)
         })
         .collect();
     progress.finish();
     let trace_s = start.elapsed().as_secs_f64();
 
-    let mut counters = Counters::with_sources(tracer.source_count());
-    let mut sample_rows = Vec::with_capacity(rows.len());
-    for (s, c) in rows {
-        counters += c;
-        sample_rows.push(s);
-    }
     let start = Instant::now();
-    let image = SampleBuffer::from_rows(w, h, sample_rows).reconstruct(settings.filter);
+    let mut counters = Counters::with_sources(tracer.source_count());
+    let mut film = Film::new(w, 0, h, settings.filter);
+    for (strip, c) in rows {
+        counters += c;
+        film.merge(&strip);
+    }
+    let image = film.image();
     Output {
         non_finite_pixels: image.non_finite_pixels(),
         image,
