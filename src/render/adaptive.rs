@@ -56,10 +56,6 @@ pub struct Sample {
     pub object: u32,
     /// The level it was taken at (-1 ..= max level).
     pub level: i8,
-    /// Bit s: point or spot light s (of the first 64 sources) is known at this sample.
-    pub point_known: u64,
-    /// Bit s: ... and lit.
-    pub point_lit: u64,
     /// Shadow rays this sample cast (all its hits).
     pub rays: u32,
     /// Shadow rays it did not cast because its SIB neighbours agreed.
@@ -78,6 +74,11 @@ pub struct SampleSet {
     pub samples: Vec<Sample>,
     /// Per pixel, its stored sample.
     pub base: Vec<u32>,
+    /// Words per sample of [`SampleSet::point_bits`]: 2 x ceil(point lights / 64).
+    point_words: usize,
+    /// Per sample, which point and spot lights are known there and which are lit
+    /// (for the shadow criterion), in [`SampleSet::point_bits`]'s layout.
+    point: Vec<u64>,
     /// SIB records of the stored samples: sample i's is
     /// `entries[first[i]..first[i + 1]]`.
     first: Vec<u32>,
@@ -97,6 +98,19 @@ impl SampleSet {
         } else {
             &[]
         }
+    }
+
+    /// Which point and spot lights sample `i` knows and which of those are lit: bit
+    /// `k % 64` of word `k / 64` for the k-th point or spot light among the ray-traced
+    /// sources; the known words, then as many lit words.
+    pub fn point_bits(&self, i: u32) -> &[u64] {
+        let n = self.point_words;
+        &self.point[i as usize * n..(i as usize + 1) * n]
+    }
+
+    /// A sample with its point bits, for [`differ`].
+    fn with_bits(&self, i: u32) -> (&Sample, &[u64]) {
+        (&self.samples[i as usize], self.point_bits(i))
     }
 
     /// The samples of pixel `p`.
@@ -205,11 +219,23 @@ pub fn render_adaptive(
     progress: &dyn Progress,
 ) -> AdaptiveOutput {
     let (w, h) = (settings.width, settings.height);
+    let mut point_count = 0;
+    let point: Vec<Option<u32>> = tracer
+        .point_sources()
+        .into_iter()
+        .map(|is_point| {
+            is_point.then(|| {
+                point_count += 1;
+                point_count as u32 - 1
+            })
+        })
+        .collect();
     let ctx = LevelCtx {
         tracer,
         camera,
         refine,
-        point: tracer.point_sources(),
+        point,
+        point_count,
         nsrc: tracer.source_count(),
         progress,
     };
@@ -219,6 +245,8 @@ pub fn render_adaptive(
         height: h,
         samples: Vec::new(),
         base: vec![NONE; (w * h) as usize],
+        point_words: 2 * ctx.point_count.div_ceil(64),
+        point: Vec::new(),
         first: vec![0],
         entries: Vec::new(),
         pixel_start: Vec::new(),
@@ -280,7 +308,7 @@ pub fn render_adaptive(
     for level in 1..=refine.max_level as i32 {
         marked = if level == 1 {
             // Each pixel's stored sample against those of its eight neighbours.
-            let stored = |x: u32, y: u32| &set.samples[set.base[(y * w + x) as usize] as usize];
+            let stored = |x: u32, y: u32| set.with_bits(set.base[(y * w + x) as usize]);
             (0..w * h)
                 .into_par_iter()
                 .filter(|&p| {
@@ -296,7 +324,7 @@ pub fn render_adaptive(
             // The samples inside each pixel refined at the level before.
             marked
                 .into_par_iter()
-                .filter(|&p| differ(set.pixel(p).iter().map(|&i| &set.samples[i as usize]), refine))
+                .filter(|&p| differ(set.pixel(p).iter().map(|&i| set.with_bits(i)), refine))
                 .collect()
         };
         if marked.is_empty() {
@@ -390,21 +418,32 @@ fn four_from(x0: i64, y0: i64, w: u32, h: u32, at: impl Fn(u32, u32) -> u32) -> 
     nb
 }
 
-/// Whether the refinement criteria fire among `samples`: object, shadow (a point light
-/// lit at one, shadowed at another) or difference.
-fn differ<'s>(samples: impl IntoIterator<Item = &'s Sample>, refine: &Refine) -> bool {
-    let (mut object, mut lit, mut dark) = (None, 0u64, 0u64);
+/// Whether the refinement criteria fire among `samples` (each with its point bits,
+/// [`SampleSet::point_bits`]): object, shadow (a point or spot light lit at one,
+/// shadowed at another, whatever the number of lights) or difference.
+fn differ<'s, I>(samples: I, refine: &Refine) -> bool
+where
+    I: IntoIterator<Item = (&'s Sample, &'s [u64])> + Clone,
+{
+    let (mut object, mut words) = (None, 0);
     let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-    for s in samples {
+    for (s, bits) in samples.clone() {
         if *object.get_or_insert(s.object) != s.object {
             return true;
         }
-        lit |= s.point_known & s.point_lit;
-        dark |= s.point_known & !s.point_lit;
+        words = bits.len() / 2;
         lo = lo.min(s.display);
         hi = hi.max(s.display);
     }
-    lit & dark != 0 || (hi - lo).max_element() > refine.contrast
+    (0..words).any(|j| {
+        let (mut lit, mut dark) = (0u64, 0u64);
+        for (_, bits) in samples.clone() {
+            let (known, on) = (bits[j], bits[words + j]);
+            lit |= known & on;
+            dark |= known & !on;
+        }
+        lit & dark != 0
+    }) || (hi - lo).max_element() > refine.contrast
 }
 
 /// The display value of radiance `v` with `exposure` stops: sRGB-encoded, clipped to
@@ -418,6 +457,8 @@ fn display(v: Rgb, exposure: f32) -> Vec3 {
 /// and entries, if stored) and counts.
 struct Chunk {
     samples: Vec<Sample>,
+    /// The samples' point bits, [`SampleSet::point_bits`]'s layout.
+    point: Vec<u64>,
     lens: Vec<u32>,
     entries: Vec<Entry>,
     counters: Counters,
@@ -428,8 +469,11 @@ struct LevelCtx<'a> {
     tracer: &'a Tracer<'a>,
     camera: &'a Camera,
     refine: &'a Refine,
-    /// Which ray-traced sources are point or spot lights.
-    point: Vec<bool>,
+    /// Per ray-traced source, its place among the point and spot lights (the shadow
+    /// criterion's bit), or `None` for other sources.
+    point: Vec<Option<u32>>,
+    /// The number of point and spot lights.
+    point_count: usize,
     nsrc: usize,
     progress: &'a dyn Progress,
 }
@@ -472,6 +516,8 @@ impl LevelCtx<'_> {
             .map(|chunk| {
                 let mut counters = Counters::with_sources(nsrc);
                 let mut samples = Vec::with_capacity(chunk.len());
+                let words = 2 * self.point_count.div_ceil(64);
+                let mut point_bits = Vec::with_capacity(chunk.len() * words);
                 let mut lens = Vec::with_capacity(if store { chunk.len() } else { 0 });
                 let mut entries = Vec::new();
                 let mut record = Vec::new();
@@ -495,15 +541,15 @@ impl LevelCtx<'_> {
                     let value =
                         tracer.radiance_sib(&ray, hash32(t.seed ^ 0x2545_f491), &mut counters, &mut q);
                     let object = q.object;
-                    let (point_known, point_lit) = sib::point_bits(q.record, point);
+                    let at = point_bits.len();
+                    point_bits.resize(at + words, 0);
+                    sib::point_bits(q.record, point, &mut point_bits[at..]);
                     samples.push(Sample {
                         pos: t.pos,
                         value,
                         display: display(value, refine.exposure),
                         object,
                         level: level as i8,
-                        point_known,
-                        point_lit,
                         rays: (counters.shadow_rays - cast_before) as u32,
                         saved: (counters.shadow_rays_saved - saved_before) as u32,
                     });
@@ -515,6 +561,7 @@ impl LevelCtx<'_> {
                 self.progress.advance(chunk.len() as u64);
                 Chunk {
                     samples,
+                    point: point_bits,
                     lens,
                     entries,
                     counters,
@@ -525,12 +572,14 @@ impl LevelCtx<'_> {
         let mut total = Counters::with_sources(nsrc);
         for Chunk {
             samples,
+            point: point_bits,
             lens,
             entries,
             counters,
         } in chunks
         {
             set.samples.extend(samples);
+            set.point.extend(point_bits);
             if store {
                 let mut at = *set.first.last().expect("first has a start");
                 for l in lens {

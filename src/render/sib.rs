@@ -156,20 +156,24 @@ impl<'a> SibQuery<'a> {
     }
 }
 
-/// Lit and known bits of the first 64 sources that are point or spot lights (`point[s]`
-/// tells which are), for the shadow criterion of the adaptive sampler.
-pub fn point_bits(record: &[Entry], point: &[bool]) -> (u64, u64) {
-    let (mut known, mut lit) = (0u64, 0u64);
+/// Which point and spot lights a sample knows, and which of those are lit, for the
+/// shadow criterion of the adaptive sampler: `slot[s]` is source s's place among the
+/// point and spot lights (`None` for other sources); `out` (zeroed) gets the known
+/// words, then as many lit words, bit `k % 64` of word `k / 64` for place k.
+pub fn point_bits(record: &[Entry], slot: &[Option<u32>], out: &mut [u64]) {
+    let words = out.len() / 2;
     for e in record {
-        let s = e.source as usize;
-        if s < 64 && e.word == 0 && point.get(s).copied().unwrap_or(false) && e.known & 1 != 0 {
-            known |= 1 << s;
+        let Some(Some(k)) = slot.get(e.source as usize) else {
+            continue;
+        };
+        let (w, bit) = (*k as usize / 64, 1u64 << (k % 64));
+        if e.word == 0 && e.known & 1 != 0 && w < words {
+            out[w] |= bit;
             if e.lit & 1 != 0 {
-                lit |= 1 << s;
+                out[words + w] |= bit;
             }
         }
     }
-    (known, lit)
 }
 
 #[cfg(test)]
@@ -261,7 +265,22 @@ mod tests {
     #[test]
     fn point_bits_pick_the_point_lights_first_light_point() {
         let r = rec(&[(0, 0, true), (1, 0, false), (2, 7, true), (3, 0, true)]);
-        let point = [true, true, false, false];
-        assert_eq!(point_bits(&r, &point), (0b11, 0b01));
+        let slot = [Some(0), Some(1), None, None];
+        let mut out = [0u64; 2];
+        point_bits(&r, &slot, &mut out);
+        assert_eq!(out, [0b11, 0b01]);
+    }
+
+    /// Every point light has its bit, not only the first 64 sources.
+    #[test]
+    fn point_bits_reach_past_64_lights() {
+        let r = rec(&[(3, 0, true), (69, 0, false), (130, 0, true)]);
+        let mut slot = vec![None; 131];
+        for (s, k) in [(3, 0), (69, 65), (130, 128)] {
+            slot[s] = Some(k);
+        }
+        let mut out = [0u64; 6];
+        point_bits(&r, &slot, &mut out);
+        assert_eq!(out, [0b1, 0b10, 0b1, 0b1, 0, 0b1]);
     }
 }

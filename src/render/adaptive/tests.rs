@@ -199,8 +199,6 @@ fn the_difference_criterion_refines_only_where_values_differ() {
         display: display(Vec3::splat(0.5), 0.0),
         object: 1,
         level: 0,
-        point_known: 1,
-        point_lit: 1,
         rays: 0,
         saved: 0,
     };
@@ -209,23 +207,31 @@ fn the_difference_criterion_refines_only_where_values_differ() {
         display: display(value, exposure),
         ..a
     };
+    // One point light, known and lit.
+    let lit: &[u64] = &[1, 1];
     let r = Refine::default();
-    assert!(!differ([&a, &at(Vec3::new(0.5, 0.5, 0.52), 0.0)], &r), "small");
     let c = at(Vec3::new(0.5, 0.5, 0.7), 0.0);
-    assert!(differ([&a, &c], &r), "difference");
-    assert!(differ([&a, &Sample { object: 2, ..a }], &r), "object");
+    let small = at(Vec3::new(0.5, 0.5, 0.52), 0.0);
+    assert!(!differ([(&a, lit), (&small, lit)], &r), "small");
+    assert!(differ([(&a, lit), (&c, lit)], &r), "difference");
     assert!(
-        differ([&a, &Sample { point_lit: 0, ..a }], &r),
-        "point light shadow"
+        differ([(&a, lit), (&Sample { object: 2, ..a }, lit)], &r),
+        "object"
     );
-    let unknown = Sample {
-        point_known: 0,
-        point_lit: 0,
-        ..a
-    };
-    assert!(!differ([&a, &unknown], &r), "unknown is no shadow edge");
+    assert!(differ([(&a, lit), (&a, &[1, 0][..])], &r), "point light shadow");
+    assert!(
+        !differ([(&a, lit), (&a, &[0, 0][..])], &r),
+        "unknown is no shadow edge"
+    );
+    // The 70th point light (word 1, bit 5) lit at one sample and shadowed at the other.
+    let (on, off): (&[u64], &[u64]) = (&[0, 1 << 5, 0, 1 << 5], &[0, 1 << 5, 0, 0]);
+    assert!(differ([(&a, on), (&a, off)], &r), "point light past the 64th");
+    assert!(!differ([(&a, on), (&a, on)], &r));
     // Exposure: -8 stops makes the same difference invisible.
-    assert!(!differ([&at(a.value, -8.0), &at(c.value, -8.0)], &r));
+    assert!(!differ(
+        [(&at(a.value, -8.0), lit), (&at(c.value, -8.0), lit)],
+        &r
+    ));
     // The display value is sRGB: mid grey 0.214 encodes to about 0.5.
     assert!((display(Vec3::splat(0.214), 0.0).x - 0.5).abs() < 0.002);
     assert_eq!(display(Vec3::splat(7.0), 0.0), Vec3::ONE);
