@@ -43,6 +43,14 @@ pub enum Error {
         /// The operating system's error.
         source: std::io::Error,
     },
+    /// An output (image, statistics, solution) could not be written.
+    #[error("cannot write {}: {source}", path.display())]
+    Output {
+        /// The file.
+        path: PathBuf,
+        /// The operating system's error.
+        source: std::io::Error,
+    },
     /// A bad command-line value or a request that cannot be carried out.
     #[error("{0}")]
     Usage(String),
@@ -66,11 +74,40 @@ impl Error {
         }
     }
 
-    /// The process exit code for this error: 2 for bad input or usage, 1 otherwise.
+    /// An output `path` that could not be written.
+    pub fn output(path: &Path, source: std::io::Error) -> Self {
+        Error::Output {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+
+    /// The process exit code for this error: 2 for bad input or usage (an input file
+    /// that cannot be read included), 1 when an output cannot be written.
     pub fn exit_code(&self) -> i32 {
-        2
+        match self {
+            Error::Output { .. } => 1,
+            Error::Input { .. } | Error::Io { .. } | Error::Usage(_) => 2,
+        }
     }
 }
 
 /// radtrace's result type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exit_codes_tell_bad_input_from_failed_output() {
+        let e = std::io::Error::new(std::io::ErrorKind::NotFound, "gone");
+        assert_eq!(Error::io(Path::new("a.xml"), e).exit_code(), 2);
+        assert_eq!(Error::input(Path::new("a.xml"), None, "bad").exit_code(), 2);
+        assert_eq!(Error::Usage("bad flag".into()).exit_code(), 2);
+        let e = std::io::Error::new(std::io::ErrorKind::PermissionDenied, "read-only");
+        let out = Error::output(Path::new("out.png"), e);
+        assert_eq!(out.exit_code(), 1);
+        assert_eq!(out.to_string(), "cannot write out.png: read-only");
+    }
+}

@@ -711,3 +711,16 @@ fn tables_reproduce_the_papers_three_tables() {
         assert!(outdir.join(f).exists(), "{f}");
     }
 }
+
+/// An output that cannot be written is not bad input: exit code 1, one line naming it.
+#[test]
+fn an_unwritable_output_exits_with_code_1() {
+    let d = tmp();
+    let scene = write_scene(d.path(), PLANE_SCENE);
+    let out = d.path().join("no-such-dir").join("x.png");
+    let o = radtrace(&["render", &s(&scene), "-o", &s(&out), "-D", "res=8", "-q"]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains(&format!("cannot write {}", out.display())), "{err}");
+}

@@ -310,7 +310,7 @@ pub fn exit_after_writes(code: i32) -> ! {
 /// [`exit_after_writes`]) waits for the rename.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     if path.file_name().is_none() {
-        return Err(Error::io(
+        return Err(Error::output(
             path,
             std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name"),
         ));
@@ -320,7 +320,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         _ => Path::new("."),
     };
     if !dir.is_dir() {
-        return Err(Error::io(
+        return Err(Error::output(
             path,
             std::io::Error::new(
                 std::io::ErrorKind::NotFound,
@@ -351,7 +351,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         }
         Err(e) => {
             let _ = fs::remove_file(&tmp);
-            Err(Error::io(path, e))
+            Err(Error::output(path, e))
         }
     }
 }
