@@ -514,16 +514,16 @@ mod tests {
     }
 
     #[test]
-    fn missing_directory_is_an_io_error_naming_the_path() {
+    fn missing_directory_is_an_output_error_naming_the_path() {
         let dir = tmpdir();
         let path = dir.path().join("no/such/dir/out.png");
         let err = write_image(&Image::new(2, 2), &path, 0.0).unwrap_err();
-        assert!(matches!(err, Error::Io { .. }));
+        assert!(matches!(err, Error::Output { .. }));
         let msg = err.to_string();
         assert!(msg.contains("no/such/dir/out.png"), "{msg}");
         assert!(msg.contains("does not exist"), "{msg}");
         let err = write_atomic(&path, b"x").unwrap_err();
-        assert!(matches!(err, Error::Io { .. }));
+        assert!(matches!(err, Error::Output { .. }));
     }
 
     #[test]

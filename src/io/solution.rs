@@ -1120,7 +1120,7 @@ mod tests {
         assert!(err.to_string().contains("missing.rts"));
         let nowhere = dir.path().join("no/such/dir/x.rts");
         let err = save(sol, scene, &nowhere).unwrap_err();
-        assert!(matches!(err, Error::Io { .. }));
+        assert!(matches!(err, Error::Output { .. }));
         assert!(err.to_string().contains("no/such/dir/x.rts"));
         // A directory is not a solution file either.
         assert!(load(dir.path(), scene).is_err());
