@@ -551,7 +551,7 @@ mod tests {
         fs::create_dir(&target).unwrap();
         fs::write(target.join("inside"), b"keep").unwrap();
         let err = write_atomic(&target, b"data").unwrap_err();
-        assert!(matches!(err, Error::Io { .. }));
+        assert!(matches!(err, Error::Output { .. }));
         assert!(err.to_string().contains("taken"));
         let names: Vec<_> = fs::read_dir(dir.path()).unwrap().collect();
         assert_eq!(names.len(), 1);

@@ -80,6 +80,6 @@ mod tests {
             assert_eq!(r.uvs.is_empty(), m.uvs.is_empty());
         }
         let bad = dir.path().join("no/such/dir/x.obj");
-        assert!(matches!(write_obj(&meshes[1], &bad), Err(Error::Io { .. })));
+        assert!(matches!(write_obj(&meshes[1], &bad), Err(Error::Output { .. })));
     }
 }
