@@ -500,9 +500,8 @@ mod tests {
         };
         let mut s = scene(vec![floor()], vec![light]);
         let bvh = Bvh::build(&s);
-        // Off the diagonal shared by the two triangles (obvhs's test is not watertight
-        // on edges seen from behind).
-        let ray = Ray::new(Vec3::new(0.3, -0.2, -0.5), Vec3::Z);
+        // Exactly through the diagonal shared by the floor's two triangles.
+        let ray = Ray::new(Vec3::new(0.3, 0.3, -0.5), Vec3::Z);
         let mut c = Counters::default();
         assert_eq!(
             Tracer::new(&s, &bvh, &settings(1)).radiance(&ray, 0, 1, &mut c),
@@ -510,7 +509,7 @@ mod tests {
         );
         s.bsdfs[0].twosided = true;
         let l = Tracer::new(&s, &bvh, &settings(1)).radiance(&ray, 0, 1, &mut c);
-        let r2 = 4.0f32 + 0.13;
+        let r2 = 4.0f32 + 0.18;
         let expect = RHO / PI * 10.0 * (2.0 / r2.sqrt()) / r2;
         assert!((l.x - expect).abs() < 1e-5, "{l:?} {c:?}");
     }
