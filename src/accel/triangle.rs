@@ -22,13 +22,6 @@ use glam::{Vec3, Vec4};
 
 use super::PreparedRay;
 
-/// pbrt's `gamma(n)`: the bound `n u / (1 - n u)` on the relative error of `n`
-/// rounded operations, with `u` the unit roundoff.
-const fn gamma(n: f32) -> f32 {
-    let u = f32::EPSILON * 0.5;
-    n * u / (1.0 - n * u)
-}
-
 /// Four consecutive triangles (in leaf order) side by side, x/y/z in separate
 /// vectors, so that one 4-wide test covers a whole leaf (CWBVH leaves hold at most
 /// three triangles) instead of one test per triangle. Lanes past the last triangle
@@ -96,19 +89,12 @@ impl Tri4 {
         // t = t_abs / det_abs: the segment test without a division.
         let t_abs = Vec4::select(det.cmplt(zero), -t_scaled, t_scaled);
         let det_abs = det.abs();
-        // pbrt-v4's bound on the rounding error of t (times |det|): t must exceed it,
-        // so that a hit is surely in front of the origin.
-        let max_x = ax.abs().max(bx.abs()).max(cx.abs());
-        let max_y = ay.abs().max(by.abs()).max(cy.abs());
-        let max_z = az.abs().max(bz.abs()).max(cz.abs());
-        let max_e = u.abs().max(v.abs()).max(w.abs());
-        let delta_x = gamma(5.0) * (max_x + max_z);
-        let delta_y = gamma(5.0) * (max_y + max_z);
-        let delta_z = gamma(3.0) * max_z;
-        let delta_e = 2.0 * (gamma(2.0) * max_x * max_y + delta_y * max_x + delta_x * max_y);
-        let delta_t = 3.0 * (gamma(3.0) * max_e * max_z + delta_e * max_z + delta_z * max_e);
+        // t > 0 strictly: a ray never hits the surface it starts on at t = 0. (pbrt-v4
+        // also requires t to exceed a bound on its rounding error; radtrace's rays leave
+        // surfaces offset by `interaction::ray_epsilon`, far more than that bound, so
+        // the bound's 25 operations per block are left out.)
         let within = det.cmpne(zero)
-            & t_abs.cmpgt(delta_t)
+            & t_abs.cmpgt(zero)
             & t_abs.cmpge(det_abs * r.tmin)
             & t_abs.cmple(det_abs * tmax);
         let inv_det = Vec4::ONE / det;
