@@ -27,20 +27,9 @@ pub struct LightSample {
     /// for an area light Le cos(theta_l) A / r^2 (the estimate of one sample with
     /// density 1/A). Multiply by the BRDF and the receiver's cosine.
     pub value: Rgb,
-    /// Whether the source is a surface (the shadow ray must stop short of it).
-    pub on_surface: bool,
-}
-
-impl LightSample {
-    /// Where a shadow ray to the light point ends, from the receiver: short of a
-    /// surface source, so that the source itself does not occlude.
-    pub fn shadow_ray_end(&self) -> f32 {
-        if self.on_surface {
-            self.dist * (1.0 - 1e-4)
-        } else {
-            self.dist
-        }
-    }
+    /// The source's surface normal at the point, for a surface source (the shadow
+    /// ray must stop short of it); `None` for a point or spot light.
+    pub normal: Option<Vec3>,
 }
 
 /// Triangles of an emitting shape with an area table for uniform sampling.
@@ -162,7 +151,7 @@ impl SampledLight {
                     dir: d / dist,
                     dist,
                     value: *intensity / dist2,
-                    on_surface: false,
+                    normal: None,
                 })
             }
             SampledLight::Spot {
@@ -187,7 +176,7 @@ impl SampledLight {
                     dir,
                     dist,
                     value: *intensity * (falloff / dist2),
-                    on_surface: false,
+                    normal: None,
                 })
             }
             SampledLight::Area(e) => e.sample(p, u),
@@ -288,7 +277,7 @@ impl AreaEmitter {
             dir,
             dist,
             value: radiance * (cos_l * self.area / dist2),
-            on_surface: true,
+            normal: Some(self.normals[i]),
         })
     }
 }

@@ -64,22 +64,115 @@ impl SurfacePoint {
     /// distance `tmax` from the point.
     pub fn spawn(&self, dir: Vec3, tmax: f32) -> Ray {
         let eps = ray_epsilon(self.p);
-        let side = if dir.dot(self.ng) >= 0.0 {
-            self.ng
-        } else {
-            -self.ng
-        };
         Ray {
-            origin: self.p + side * eps,
+            origin: offset_from(self.p, self.ng, dir),
             dir,
             tmin: 0.0,
             tmax: (tmax - eps).max(0.0),
         }
     }
+
+    /// The shadow ray from this point to light point `q` (see [`shadow_ray`]).
+    pub fn shadow_ray(&self, q: Vec3, q_normal: Option<Vec3>) -> Ray {
+        shadow_ray(self.p, self.ng, q, q_normal)
+    }
 }
 
-/// Offset used to move secondary ray origins off their surface, relative to the
-/// magnitude of the coordinates (floating-point error grows with them).
+/// The one offset: how far a ray's ends are moved off their surfaces, relative to
+/// the magnitude of the coordinates (floating-point error grows with them).
 pub fn ray_epsilon(p: Vec3) -> f32 {
     2e-5 * (1.0 + p.abs().max_element())
+}
+
+/// How much shorter than the distance between its (offset) ends a shadow ray to a
+/// point on a surface is, relative to that distance (pbrt-v4's `ShadowEpsilon`).
+pub const SHADOW_EPSILON: f32 = 1e-4;
+
+/// `p`, on a surface with normal `n`, moved off it by [`ray_epsilon`] to the side
+/// that `towards` points to.
+pub fn offset_from(p: Vec3, n: Vec3, towards: Vec3) -> Vec3 {
+    let side = if towards.dot(n) >= 0.0 { n } else { -n };
+    p + side * ray_epsilon(p)
+}
+
+/// The one shadow-ray constructor of both passes (pbrt-v4's `SpawnRayTo`): from `p`,
+/// on a surface with normal `n`, to the light point `q`, which lies on a surface with
+/// normal `q_normal` (an area light, a radiant patch) or in space (`None`: a point or
+/// spot light). Each end on a surface is moved off it towards the other end
+/// ([`offset_from`]), and a ray that ends on a surface stops [`SHADOW_EPSILON`] of its
+/// length short, so that neither surface occludes the ray and the visibility pass 1
+/// stores is the visibility pass 2 finds.
+pub fn shadow_ray(p: Vec3, n: Vec3, q: Vec3, q_normal: Option<Vec3>) -> Ray {
+    let from = offset_from(p, n, q - p);
+    let to = match q_normal {
+        Some(nq) => offset_from(q, nq, p - q),
+        None => q,
+    };
+    let d = to - from;
+    let len = d.length();
+    let (dir, len) = if len > 0.0 { (d / len, len) } else { (Vec3::Z, 0.0) };
+    let tmax = if q_normal.is_some() {
+        len * (1.0 - SHADOW_EPSILON)
+    } else {
+        len
+    };
+    Ray {
+        origin: from,
+        dir,
+        tmin: 0.0,
+        tmax,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Both ends leave their surfaces towards each other; the ray stops short of a
+    /// surface end and reaches a point light; a ray of zero length is empty.
+    #[test]
+    fn a_shadow_ray_leaves_both_surfaces_towards_the_other_end() {
+        let p = Vec3::new(1.0, 2.0, 0.0);
+        let q = Vec3::new(1.0, 2.0, 3.0);
+        let n = Vec3::Z;
+        // The receiver's normal faces away from q: the origin still moves towards q.
+        let r = shadow_ray(p, -n, q, Some(-n));
+        let eps_p = ray_epsilon(p);
+        let eps_q = ray_epsilon(q);
+        assert!((r.origin - (p + n * eps_p)).length() < 1e-7, "{:?}", r.origin);
+        assert!((r.dir - n).length() < 1e-6);
+        let end = r.origin + r.dir * r.tmax;
+        assert!(end.z < q.z - eps_q && end.z > q.z - eps_q - 4e-4, "{end}");
+        // A point light: the ray ends at the light itself.
+        let r = shadow_ray(p, n, q, None);
+        assert!(((r.origin + r.dir * r.tmax) - q).length() < 1e-6);
+        assert_eq!(r.tmin, 0.0);
+        // Nothing between coincident points.
+        assert_eq!(shadow_ray(p, n, p, None).tmax, 0.0);
+    }
+
+    /// A ray offset by the rule does not hit the surface it leaves, however far from
+    /// the origin the surface is (the offset grows with the coordinates).
+    #[test]
+    fn an_offset_ray_does_not_see_its_own_surface() {
+        use crate::accel::{Accel, Bvh};
+        use crate::testutil::{quad, scene};
+        for &far in &[0.0f32, 1e2, 1e4] {
+            let c = Vec3::new(far, far, 0.0);
+            let floor = quad([
+                c + Vec3::new(-1.0, -1.0, 0.0),
+                c + Vec3::new(1.0, -1.0, 0.0),
+                c + Vec3::new(1.0, 1.0, 0.0),
+                c + Vec3::new(-1.0, 1.0, 0.0),
+            ]);
+            let s = scene(vec![(floor, Vec3::splat(0.5))], vec![], &[]);
+            let bvh = Bvh::build(&s);
+            for k in 0..64 {
+                let a = k as f32 * 0.098;
+                let p = c + Vec3::new(0.3 * a.cos(), 0.3 * a.sin(), 0.0);
+                let light = p + Vec3::new(5.0 * a.sin(), 0.5 * a.cos(), 0.01 + 0.05 * k as f32);
+                assert!(!bvh.occluded(&shadow_ray(p, Vec3::Z, light, None)), "far {far} k {k}");
+            }
+        }
+    }
 }

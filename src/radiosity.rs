@@ -20,9 +20,9 @@ use std::time::Instant;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
-use crate::accel::{Accel, Ray};
+use crate::accel::Accel;
 use crate::emitters::{light_power, SampledLight};
-use crate::interaction::ray_epsilon;
+use crate::interaction::{ray_epsilon, shadow_ray};
 use crate::mesh::{MeshVertex, RadiosityMesh};
 use crate::progress::Progress;
 use crate::scene::{Light, Rgb, Scene};
@@ -446,20 +446,10 @@ impl Solver<'_> {
             };
             unocc += e;
             rays += 1;
-            let side = if n.dot(dir) >= 0.0 { n } else { -n };
-            let eps = ray_epsilon(x);
-            let origin = x + side * eps;
-            let tmax = if light.is_some() {
-                r - eps
-            } else {
-                r - 2.0 * ray_epsilon(sp.p) - eps
-            };
-            let ray = Ray {
-                origin,
-                dir,
-                tmin: 0.0,
-                tmax: tmax.max(0.0),
-            };
+            // The one shadow-ray rule of both passes: to a light point in space, or to a
+            // point of the shooting cell's surface.
+            let target_normal = if light.is_some() { None } else { Some(sp.n) };
+            let ray = shadow_ray(x, n, sp.p, target_normal);
             if !self.accel.occluded(&ray) {
                 occ += e;
             }

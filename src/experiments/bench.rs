@@ -99,8 +99,8 @@ pub fn ray_sets(scene: &Scene, accel: &dyn Accel, opts: &Options) -> Result<RayS
     let lights = SampledLight::prepare_all(scene);
     let mut rng = rand_pcg::Pcg32::seed_from_u64(opts.seed);
     let mut next_light = 0;
-    // Secondary rays leave the hits as the renderer's do (SurfacePoint::spawn: tmin 0,
-    // origin nudged off the surface).
+    // Secondary rays leave the hits as the renderer's do (SurfacePoint::shadow_ray and
+    // spawn: the one offset rule of `interaction`).
     for ray in &sets.camera {
         let Some(hit) = accel.intersect(ray) else {
             continue;
@@ -117,7 +117,7 @@ pub fn ray_sets(scene: &Scene, accel: &dyn Accel, opts: &Options) -> Result<RayS
                 if s.dir.dot(sp.ng) <= 0.0 {
                     continue;
                 }
-                sets.shadow.push(sp.spawn(s.dir, s.shadow_ray_end()));
+                sets.shadow.push(sp.shadow_ray(s.point, s.normal));
             }
         }
         for _ in 0..opts.bounce_per_hit {

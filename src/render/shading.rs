@@ -232,7 +232,7 @@ impl<'a> Tracer<'a> {
                 }
                 None => {
                     cast += 1;
-                    !self.accel.occluded(&sp.spawn(s.dir, s.shadow_ray_end()))
+                    !self.accel.occluded(&sp.shadow_ray(s.point, s.normal))
                 }
             };
             if let Some(q) = sib.as_deref_mut() {
