@@ -171,7 +171,10 @@ mod tests {
                 let a = k as f32 * 0.098;
                 let p = c + Vec3::new(0.3 * a.cos(), 0.3 * a.sin(), 0.0);
                 let light = p + Vec3::new(5.0 * a.sin(), 0.5 * a.cos(), 0.01 + 0.05 * k as f32);
-                assert!(!bvh.occluded(&shadow_ray(p, Vec3::Z, light, None)), "far {far} k {k}");
+                assert!(
+                    !bvh.occluded(&shadow_ray(p, Vec3::Z, light, None)),
+                    "far {far} k {k}"
+                );
             }
         }
     }

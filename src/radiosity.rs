@@ -352,9 +352,7 @@ impl Solver<'_> {
     }
 
     fn jitter(&self, shot: u64) -> impl Fn(u32) -> Vec2 {
-        let seed = crate::sampling::fold32(crate::sampling::splitmix64(
-            self.settings.seed ^ shot.wrapping_mul(0x9E37_79B9_7F4A_7C15),
-        ));
+        let seed = crate::sampling::shot_seed(self.settings.seed, shot);
         move |k| Vec2::new(sobol_burley::sample(k, 0, seed), sobol_burley::sample(k, 1, seed))
     }
 

@@ -1,28 +1,137 @@
-//! The one seed and hash scheme of radtrace: every random choice (pixel jitter, light
-//! points, shooting points) is derived from the user's seed by SplitMix64 hashing of
-//! what the choice is for, so an image depends on the seed alone, not on the threads.
+//! The one seed and hash scheme of radtrace. Every random choice (pixel and cell
+//! jitter, reflection paths, light points, shooting points) takes its numbers from a
+//! 32-bit seed made one way: SplitMix64 of a parent ^ a key, folded to 32 bits. The
+//! parents are the user's seed (for pixels, adaptive cells and shots: [`pixel_seed`],
+//! [`cell_seed`], [`shot_seed`]) or another seed ([`derive`] with a [`Stream`]), and
+//! the keys name what the numbers are for. So an image depends on the seed alone, not
+//! on the threads or the order of the work, and two streams never share numbers.
+//! (The keys are those radtrace has always used, so images are unchanged.)
 
-/// A 32-bit seed for pixel `(x, y)` of a view, from the user's seed.
-pub fn pixel_seed(seed: u64, view: u64, x: u32, y: u32) -> u32 {
-    fold32(splitmix64(
-        seed ^ splitmix64(view << 48 ^ (y as u64) << 24 ^ x as u64),
-    ))
+use glam::Vec2;
+
+/// What a derived seed is for ([`derive`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stream {
+    /// The path of sample `k` of a pixel (uniform sampler).
+    Sample(u32),
+    /// The path of an adaptive sampler's sample, from its cell seed.
+    Path,
+    /// The continuation of a path after a mirror reflection.
+    Reflection,
+    /// The light points of ray-traced source `s` at one hit.
+    Light(u32),
 }
 
-/// Folds a 64-bit hash into 32 bits (for sample seeds).
-pub fn fold32(h: u64) -> u32 {
+impl Stream {
+    /// The key the parent seed is combined with.
+    fn key(self) -> u32 {
+        match self {
+            Stream::Sample(k) => k.wrapping_mul(0x9E37_79B9),
+            Stream::Path => 0x2545_f491,
+            Stream::Reflection => 0x5bd1_e995,
+            Stream::Light(s) => s.wrapping_mul(0x85eb_ca6b),
+        }
+    }
+}
+
+/// The one hash: SplitMix64 of `parent ^ key`, folded to 32 bits.
+fn hash(parent: u64, key: u64) -> u32 {
+    let h = splitmix64(parent ^ key);
     (h ^ (h >> 32)) as u32
 }
 
+/// The seed of pixel `(x, y)` of a view (uniform sampler), from the user's seed.
+pub fn pixel_seed(seed: u64, view: u64, x: u32, y: u32) -> u32 {
+    hash(seed, splitmix64(view << 48 ^ (y as u64) << 24 ^ x as u64))
+}
+
+/// The seed of cell `(x, y)` of an adaptive sampler's `level` (-1 ..) in a view.
+pub fn cell_seed(seed: u64, view: u64, level: i32, x: u32, y: u32) -> u32 {
+    let key = ((level + 1) as u64) << 58 ^ view << 52 ^ (y as u64) << 26 ^ x as u64;
+    hash(seed, splitmix64(key))
+}
+
+/// The seed of shot `shot` of pass 1.
+pub fn shot_seed(seed: u64, shot: u64) -> u32 {
+    hash(seed, shot.wrapping_mul(0x9E37_79B9_7F4A_7C15))
+}
+
+/// A seed derived from `parent` for `stream`.
+pub fn derive(parent: u32, stream: Stream) -> u32 {
+    hash((parent ^ stream.key()) as u64, 0)
+}
+
+/// Two uniform numbers in [0, 1) (24 bits each): a cell's jitter from its seed.
+pub fn uniform2(seed: u32) -> Vec2 {
+    let h = splitmix64(seed as u64 ^ 0xA076_1D64_78BD_642F);
+    let f = |bits: u64| bits as f32 / (1u64 << 24) as f32;
+    Vec2::new(f(h >> 40), f((h >> 16) & 0xFF_FFFF))
+}
+
+/// Three uniform numbers in [0, 1) (21 bits each) for draw `index` of `seed`.
+pub fn uniform3(seed: u32, index: u32) -> [f32; 3] {
+    let h = splitmix64((seed as u64) << 32 | index as u64);
+    let f = |k: u32| ((h >> (k * 21)) & 0x1F_FFFF) as f32 / (1u32 << 21) as f32;
+    [f(0), f(1), f(2)]
+}
+
 /// SplitMix64's finaliser: a good 64-bit mixing function.
-pub fn splitmix64(mut z: u64) -> u64 {
+fn splitmix64(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^ (z >> 31)
 }
 
-/// Mixes a 32-bit value (for deriving independent sample seeds).
-pub fn hash32(x: u32) -> u32 {
-    fold32(splitmix64(x as u64))
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Streams, keys and parents all change the seed; the same inputs give the same.
+    #[test]
+    fn seeds_differ_by_stream_key_and_parent() {
+        let a = pixel_seed(7, 0, 1, 2);
+        assert_eq!(a, pixel_seed(7, 0, 1, 2));
+        assert_ne!(a, pixel_seed(7, 0, 2, 1));
+        assert_ne!(a, pixel_seed(8, 0, 1, 2));
+        assert_ne!(a, pixel_seed(7, 1, 1, 2));
+        assert_ne!(cell_seed(7, 0, 0, 1, 2), cell_seed(7, 0, 1, 1, 2));
+        let kids = [
+            derive(a, Stream::Sample(0)),
+            derive(a, Stream::Sample(1)),
+            derive(a, Stream::Path),
+            derive(a, Stream::Reflection),
+            derive(a, Stream::Light(0)),
+            derive(a, Stream::Light(1)),
+        ];
+        for i in 0..kids.len() {
+            for j in 0..i {
+                assert_ne!(kids[i], kids[j], "{i} {j}");
+            }
+        }
+    }
+
+    /// The uniform numbers lie in [0, 1) and are evenly spread: the mean of many is
+    /// 1/2 and each tenth of the interval holds about a tenth of them.
+    #[test]
+    fn uniforms_are_uniform() {
+        let n = 20_000u32;
+        let mut bins = [0u32; 10];
+        let mut sum = 0.0f64;
+        for i in 0..n {
+            let s = cell_seed(3, 0, 0, i, 0);
+            let [a, b, c] = uniform3(s, i);
+            let v = uniform2(s);
+            for x in [a, b, c, v.x, v.y] {
+                assert!((0.0..1.0).contains(&x));
+                sum += x as f64;
+                bins[(x * 10.0) as usize] += 1;
+            }
+        }
+        let total = 5.0 * n as f64;
+        assert!((sum / total - 0.5).abs() < 0.005, "{}", sum / total);
+        for b in bins {
+            assert!((b as f64 / total - 0.1).abs() < 0.005, "{bins:?}");
+        }
+    }
 }

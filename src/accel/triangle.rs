@@ -93,10 +93,8 @@ impl Tri4 {
         // also requires t to exceed a bound on its rounding error; radtrace's rays leave
         // surfaces offset by `interaction::ray_epsilon`, far more than that bound, so
         // the bound's 25 operations per block are left out.)
-        let within = det.cmpne(zero)
-            & t_abs.cmpgt(zero)
-            & t_abs.cmpge(det_abs * r.tmin)
-            & t_abs.cmple(det_abs * tmax);
+        let within =
+            det.cmpne(zero) & t_abs.cmpgt(zero) & t_abs.cmpge(det_abs * r.tmin) & t_abs.cmple(det_abs * tmax);
         let inv_det = Vec4::ONE / det;
         let t = t_scaled * inv_det;
         // (An overflow to t = inf is no hit, even on an unbounded ray.)

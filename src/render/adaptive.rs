@@ -33,7 +33,7 @@ use super::{FilmSample, SampleBuffer, Settings, Tracer};
 use crate::camera::Camera;
 use crate::image::{srgb_encode, Image};
 use crate::progress::Progress;
-use crate::sampling::{fold32, hash32, splitmix64};
+use crate::sampling::{cell_seed, derive, uniform2, Stream};
 use crate::scene::Rgb;
 
 /// "No sample".
@@ -253,17 +253,9 @@ pub fn render_adaptive(
         by_pixel: Vec::new(),
     };
     let mut levels = Vec::new();
-    let seed_of = |level: i32, cx: u32, cy: u32| -> u32 {
-        let key = ((level + 1) as u64) << 58 ^ (settings.view as u64) << 52 ^ (cy as u64) << 26 ^ cx as u64;
-        fold32(splitmix64(settings.seed ^ splitmix64(key)))
-    };
-    let jitter = |seed: u32| {
-        let h = splitmix64(seed as u64 ^ 0xA076_1D64_78BD_642F);
-        Vec2::new(
-            (h >> 40) as f32 / (1u64 << 24) as f32,
-            ((h >> 16) & 0xFF_FFFF) as f32 / (1u64 << 24) as f32,
-        )
-    };
+    let seed_of =
+        |level: i32, cx: u32, cy: u32| cell_seed(settings.seed, settings.view as u64, level, cx, cy);
+    let jitter = uniform2;
 
     // Level -1: one sample per 2 x 2 block, every shadow ray cast.
     let (bw, bh) = (w.div_ceil(2), h.div_ceil(2));
@@ -539,7 +531,7 @@ impl LevelCtx<'_> {
                     counters.primary_rays += 1;
                     let (cast_before, saved_before) = (counters.shadow_rays, counters.shadow_rays_saved);
                     let value =
-                        tracer.radiance_sib(&ray, hash32(t.seed ^ 0x2545_f491), &mut counters, &mut q);
+                        tracer.radiance_sib(&ray, derive(t.seed, Stream::Path), &mut counters, &mut q);
                     let object = q.object;
                     let at = point_bits.len();
                     point_bits.resize(at + words, 0);

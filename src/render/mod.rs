@@ -22,7 +22,7 @@ use crate::accel::Accel;
 use crate::camera::Camera;
 use crate::image::Image;
 use crate::progress::Progress;
-use crate::sampling::{hash32, pixel_seed};
+use crate::sampling::{derive, pixel_seed, Stream};
 use crate::scene::Scene;
 use crate::selection::Selection;
 use crate::{Error, Result};
@@ -172,7 +172,7 @@ fn render_uniform(tracer: &Tracer, camera: &Camera, settings: &Settings, progres
                     let (fx, fy) = (x as f32 + jitter.x, y as f32 + jitter.y);
                     let ray = camera.ray(fx, fy);
                     counters.primary_rays += 1;
-                    let path_seed = hash32(pixel_seed ^ k.wrapping_mul(0x9E37_79B9));
+                    let path_seed = derive(pixel_seed, Stream::Sample(k));
                     let value = tracer.radiance(&ray, 0, path_seed, &mut counters);
                     strip.add(&FilmSample { x: fx, y: fy, value }, share, h);
                 }

@@ -9,7 +9,7 @@ use crate::accel::{Accel, Ray};
 use crate::emitters::{group_bounds, sub_source_uv, SampledLight};
 use crate::interaction::SurfacePoint;
 use crate::mesh::RadiosityMesh;
-use crate::sampling::{hash32, splitmix64};
+use crate::sampling::{derive, uniform3, Stream};
 use crate::scene::{Bsdf, Rgb, Scene};
 use crate::selection::{Pick, Selection};
 
@@ -177,7 +177,7 @@ impl<'a> Tracer<'a> {
                 if dir.dot(sp.ng) > 0.0 {
                     counters.reflection_rays += 1;
                     let refl = sp.spawn(dir, f32::INFINITY);
-                    l += m * self.trace(&refl, depth + 1, hash32(seed ^ 0x5bd1_e995), counters, None);
+                    l += m * self.trace(&refl, depth + 1, derive(seed, Stream::Reflection), counters, None);
                 }
             }
         }
@@ -204,14 +204,14 @@ impl<'a> Tracer<'a> {
         } else {
             (1, 1)
         };
-        let light_seed = hash32(h.seed ^ pick.source.wrapping_mul(0x85eb_ca6b));
+        let light_seed = derive(h.seed, Stream::Light(pick.source));
         let sp = h.sp;
         let mut acc = Vec3::ZERO;
         let (mut cast, mut saved) = (0, 0);
         for g in 0..r {
             let (a, b) = group_bounds(g, r, n);
             let uv = if n > 1 {
-                sub_source_uv(a, b, n, uniforms(light_seed, g))
+                sub_source_uv(a, b, n, uniform3(light_seed, g))
             } else {
                 Vec2::ZERO
             };
@@ -259,13 +259,6 @@ struct Shade<'s> {
     bsdf: &'s Bsdf,
     cos_v: f32,
     seed: u32,
-}
-
-/// Three uniform numbers in [0, 1) for group `g` of a light's samples at one hit.
-fn uniforms(seed: u32, g: u32) -> [f32; 3] {
-    let h = splitmix64((seed as u64) << 32 | g as u64);
-    let f = |k: u32| ((h >> (k * 21)) & 0x1F_FFFF) as f32 / (1u32 << 21) as f32;
-    [f(0), f(1), f(2)]
 }
 
 #[cfg(test)]
