@@ -352,7 +352,7 @@ pub fn hilbert_d2xy(order: u32, d: u64) -> (u32, u32) {
     (x, y)
 }
 
-/// Radiant power of a light (mean over RGB).
+/// Radiant power of a light (mean over RGB), in closed form.
 pub fn light_power(scene: &Scene, light: &Light) -> f64 {
     match *light {
         Light::Point { intensity, .. } => 4.0 * std::f64::consts::PI * mean_rgb(intensity) as f64,
@@ -362,21 +362,17 @@ pub fn light_power(scene: &Scene, light: &Light) -> f64 {
             beam_width,
             ..
         } => {
-            // I * integral of the falloff over the sphere.
-            let beam = beam_width.min(cutoff_angle) as f64;
-            let cut = cutoff_angle as f64;
-            let n = 2000;
-            let mut sum = 0.0;
-            for k in 0..n {
-                let th = (k as f64 + 0.5) / n as f64 * cut;
-                let f = if th <= beam {
-                    1.0
-                } else {
-                    (cut - th) / (cut - beam)
-                };
-                sum += f * th.sin() * cut / n as f64;
-            }
-            2.0 * std::f64::consts::PI * sum * mean_rgb(intensity) as f64
+            // I times the integral of Mitsuba's falloff (1 inside the beam width b,
+            // falling linearly in angle to 0 at the cutoff c) over the sphere:
+            // 2 pi (1 - (sin c - sin b) / (c - b)), or 2 pi (1 - cos c) when b = c.
+            let b = beam_width.min(cutoff_angle) as f64;
+            let c = cutoff_angle as f64;
+            let solid = if c - b > 1e-9 {
+                1.0 - (c.sin() - b.sin()) / (c - b)
+            } else {
+                1.0 - c.cos()
+            };
+            2.0 * std::f64::consts::PI * solid * mean_rgb(intensity) as f64
         }
         Light::Area { shape, radiance } => {
             std::f64::consts::PI * mean_rgb(radiance) as f64 * scene.shapes[shape as usize].mesh.area() as f64
@@ -391,6 +387,43 @@ fn mean_rgb(c: Rgb) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A spot's power in closed form against a fine numerical integral of its falloff
+    /// over the sphere, and the limits: a hard-edged cone and a full sphere.
+    #[test]
+    fn spot_power_is_the_integral_of_its_falloff() {
+        use crate::testutil::scene;
+        let s = scene(vec![], vec![], &[]);
+        let spot = |cutoff: f32, beam: f32| Light::Spot {
+            position: Vec3::ZERO,
+            direction: Vec3::Z,
+            intensity: Vec3::splat(2.0),
+            cutoff_angle: cutoff,
+            beam_width: beam,
+        };
+        for (c, b) in [(0.5f64, 0.3f64), (1.2, 0.1), (0.3, 0.3), (3.0, 2.0)] {
+            let n = 200_000;
+            let mut sum = 0.0;
+            for k in 0..n {
+                let th = (k as f64 + 0.5) / n as f64 * c;
+                let f = if th <= b { 1.0 } else { (c - th) / (c - b) };
+                sum += f * th.sin() * c / n as f64;
+            }
+            let want = 2.0 * std::f64::consts::PI * sum * 2.0;
+            let got = light_power(&s, &spot(c as f32, b as f32));
+            assert!((got - want).abs() < 1e-5 * want, "c {c} b {b}: {got} vs {want}");
+        }
+        let cone = light_power(&s, &spot(0.4, 0.4));
+        assert!((cone - 4.0 * std::f64::consts::PI * (1.0 - 0.4f64.cos())).abs() < 1e-6);
+        let point = light_power(
+            &s,
+            &Light::Point {
+                position: Vec3::ZERO,
+                intensity: Vec3::splat(2.0),
+            },
+        );
+        assert!((point - 8.0 * std::f64::consts::PI).abs() < 1e-9);
+    }
 
     #[test]
     fn hilbert_curve_visits_every_cell_once_in_adjacent_steps() {

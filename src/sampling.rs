@@ -96,19 +96,23 @@ mod tests {
         assert_ne!(a, pixel_seed(8, 0, 1, 2));
         assert_ne!(a, pixel_seed(7, 1, 1, 2));
         assert_ne!(cell_seed(7, 0, 0, 1, 2), cell_seed(7, 0, 1, 1, 2));
-        let kids = [
-            derive(a, Stream::Sample(0)),
-            derive(a, Stream::Sample(1)),
-            derive(a, Stream::Path),
+        // The streams derived from one path seed at a hit: the reflection and each
+        // source's light points; and the samples of one pixel.
+        let at_hit = [
             derive(a, Stream::Reflection),
             derive(a, Stream::Light(0)),
             derive(a, Stream::Light(1)),
+            derive(a, Stream::Light(2)),
         ];
-        for i in 0..kids.len() {
-            for j in 0..i {
-                assert_ne!(kids[i], kids[j], "{i} {j}");
+        let in_pixel = [0, 1, 2, 3].map(|k| derive(a, Stream::Sample(k)));
+        for kids in [at_hit, in_pixel] {
+            for i in 0..kids.len() {
+                for j in 0..i {
+                    assert_ne!(kids[i], kids[j], "{i} {j}");
+                }
             }
         }
+        assert_ne!(derive(a, Stream::Path), derive(a, Stream::Reflection));
     }
 
     /// The uniform numbers lie in [0, 1) and are evenly spread: the mean of many is
