@@ -293,7 +293,7 @@ print(json.dumps({"variant": mi.variant(), "render_s": wall}))
 
 def mitsuba_env():
     """Mitsuba's LLVM backend needs Debian's libllvm19 (older ones crash it); installed
-    on demand when running as root, as ../shared/tools/mitsuba-reference does.
+    on demand when running as root, as tools/mitsuba-reference does.
     Without it Mitsuba falls back to its much slower scalar variant."""
     if not LLVM.exists() and os.geteuid() == 0:
         print("compare-peers: installing libllvm19 for Mitsuba's LLVM backend", file=sys.stderr)
@@ -306,7 +306,7 @@ def mitsuba_env():
 
 def mitsuba_render(scene: Path, out: Path, spp: int, seed: int, defines: dict) -> dict:
     """Renders with Mitsuba's path tracer in a fresh process; returns its render time
-    (as ../shared/tools/mitsuba-reference --time reports it) and the process's."""
+    (as tools/mitsuba-reference --time reports it) and the process's."""
     t = time.perf_counter()
     r = subprocess.run(
         [sys.executable, "-c", MITSUBA_RENDER, str(scene), str(out), str(spp), str(seed), json.dumps(defines)],
