@@ -616,4 +616,4 @@ pub fn select<'a>(
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

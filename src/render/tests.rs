@@ -5,20 +5,10 @@ use glam::Vec3;
 
 use super::*;
 use crate::accel::Bvh;
-use crate::radiosity::{solve, SolveSettings, SourceId};
+use crate::radiosity::{solve, SourceId};
+use crate::selection::tests::solve_settings;
 use crate::selection::{select, Pick, SelectSettings};
 use crate::testutil::{open_scene, room};
-
-fn solve_settings(mesh_size: f32, n: u32) -> SolveSettings {
-    SolveSettings {
-        mesh_size,
-        sources_per_patch: n,
-        shoot_samples: 64,
-        tolerance: 0.01,
-        max_shots: 40,
-        seed: 1,
-    }
-}
 
 fn mean(c: Vec3) -> f32 {
     (c.x + c.y + c.z) / 3.0

@@ -4,7 +4,8 @@ use crate::radiosity::{solve, SolveSettings};
 use crate::testutil::{room, scene, square, v};
 use std::f32::consts::PI;
 
-fn solve_settings(mesh_size: f32, n: u32) -> SolveSettings {
+/// Pass 1 settings of the selection and rendering tests.
+pub(crate) fn solve_settings(mesh_size: f32, n: u32) -> SolveSettings {
     SolveSettings {
         mesh_size,
         sources_per_patch: n,
