@@ -15,15 +15,14 @@ use std::path::Path;
 
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use serde_json::json;
 
 use crate::accel::Bvh;
 use crate::io::solution;
 use crate::progress::Progress;
 use crate::radiosity::{self, Solution, SolveSettings};
-use crate::render::{Method, Sampler, Settings};
+use crate::render::{Method, Settings};
 use crate::scene::{xml, Scene};
-use crate::selection::{self, SelectSettings, Selection, ViewScale};
+use crate::selection::{SelectSettings, Selection};
 use crate::stats::Timings;
 use crate::{Error, Result};
 
@@ -169,176 +168,42 @@ fn render_view<'a>(
     quiet: bool,
     t: &mut Timings,
 ) -> Result<(crate::render::Output, Option<Selection<'a>>)> {
-    let sensor = l.scene.sensor(settings.view)?;
-    let camera = crate::camera::Camera::new(sensor, settings.width, settings.height);
-    let selection = match (&l.solution, settings.method) {
-        (_, Method::Direct) | (None, _) => None,
-        (Some(sol), method) => {
-            let view = ViewScale::of(&camera);
-            Some(t.time("select", || {
-                selection::select(&l.scene, sol, method, select, Some(&view))
-            })?)
-        }
-    };
-    if let (Some(sel), false) = (&selection, quiet) {
-        if settings.method == Method::Local {
+    let mut selected = |sel: &Selection| {
+        if !quiet && settings.method == Method::Local {
             print_selection_summary(sel);
         }
-    }
-    let out = crate::render::render(&l.scene, &l.bvh, settings, selection.as_ref(), &Bars::new(quiet))?;
-    t.add("render", out.trace_s);
-    t.add("reconstruct", out.reconstruct_s);
-    Ok((out, selection))
-}
-
-/// Name and kind of each ray-traced source of a render.
-fn source_names(scene: &Scene, selection: Option<&Selection>, count: usize) -> Vec<(String, String)> {
-    (0..count)
-        .map(|i| match selection {
-            Some(sel) => (sel.source_name(scene, i), source_kind(scene, sel.sources[i])),
-            None => (scene.light_name(i), scene.lights[i].kind().to_string()),
-        })
-        .collect()
-}
-
-/// The statistics JSON of one render.
-#[allow(clippy::too_many_arguments)]
-fn render_json(
-    l: &Loaded,
-    settings: &Settings,
-    out: &crate::render::Output,
-    selection: Option<&Selection>,
-    select: &SelectSettings,
-    names: &[(String, String)],
-    threads: usize,
-    time_s: serde_json::Value,
-) -> serde_json::Value {
-    let c = &out.counters;
-    let per_hit = |rays: u64| {
-        if c.diffuse_hits > 0 {
-            rays as f64 / c.diffuse_hits as f64
-        } else {
-            0.0
-        }
     };
-    let sources: Vec<serde_json::Value> = c
-        .sources
-        .iter()
-        .zip(names)
-        .map(|(s, (name, kind))| {
-            json!({
-                "name": name,
-                "kind": kind,
-                "hits": s.hits,
-                "shadow_rays": s.shadow_rays,
-                "rays_per_hit": per_hit(s.shadow_rays),
-            })
-        })
-        .collect();
-    let adaptive = settings.sampler == Sampler::Adaptive;
-    json!({
-        "scene": l.scene.path,
-        "view": settings.view,
-        "method": settings.method,
-        "sampler": settings.sampler,
-        "width": settings.width,
-        "height": settings.height,
-        "spp": if adaptive { serde_json::Value::Null } else { json!(settings.spp) },
-        "max_level": if adaptive { json!(settings.refine.max_level) } else { serde_json::Value::Null },
-        "contrast": if adaptive { json!(settings.refine.contrast) } else { serde_json::Value::Null },
-        "sib": adaptive && settings.refine.sib,
-        "seed": settings.seed,
-        "area_samples": settings.area_samples,
-        "max_depth": settings.max_depth,
-        "filter": settings.filter,
-        "threads": threads,
-        "triangles": l.bvh.triangle_count(),
-        "lights": l.scene.lights.len(),
-        "primary_rays": c.primary_rays,
-        "shadow_rays": c.shadow_rays,
-        "shadow_rays_saved": c.shadow_rays_saved,
-        "diffuse_hits": c.diffuse_hits,
-        "reflection_rays": c.reflection_rays,
-        "shadow_rays_per_hit": c.rays_per_hit(),
-        "non_finite_pixels": out.non_finite_pixels,
-        "levels": out.levels,
-        "sources": sources,
-        "solve": l.solution.as_ref().filter(|_| settings.method != Method::Direct).map(solve_json),
-        "selection": selection.map(|sel| selection_json(sel, select)),
-        "time_s": time_s,
-    })
+    crate::experiments::select_and_render(
+        &l.scene,
+        &l.bvh,
+        l.solution.as_ref(),
+        settings,
+        select,
+        &mut selected,
+        &Bars::new(quiet),
+        t,
+    )
 }
 
-fn write_json(path: &Path, doc: &serde_json::Value) -> Result<()> {
-    let text = serde_json::to_string_pretty(doc).expect("stats serialise") + "\n";
-    crate::io::write_atomic(path, text.as_bytes())
+/// Writes a statistics document (see [`crate::stats::to_json_text`]).
+fn write_json(path: &Path, doc: &impl serde::Serialize) -> Result<()> {
+    crate::io::write_atomic(path, crate::stats::to_json_text(doc).as_bytes())
 }
 
-/// "spot", "area", ... or "patch" for a radiant patch.
-fn source_kind(scene: &Scene, s: radiosity::SourceId) -> String {
-    match s {
-        radiosity::SourceId::Light(l) => scene.lights[l as usize].kind().to_string(),
-        radiosity::SourceId::Patch(_) => "patch".to_string(),
-    }
-}
-
-/// How many (patch, listed source) pairs each criterion turned down.
-fn rejections(sel: &Selection) -> serde_json::Value {
-    let mut listed = 0;
-    let mut selected = 0;
-    let mut r = [0u64; 5];
-    for (_, c) in sel.criteria.iter().flatten() {
-        listed += 1;
-        selected += c.selected() as u64;
-        for (k, ok) in [c.radiance, c.reflectivity, c.gradient, c.solid_angle, c.view]
-            .into_iter()
-            .enumerate()
-        {
-            r[k] += !ok as u64;
-        }
-    }
-    json!({
-        "listed": listed,
-        "selected": selected,
-        "rejected_by": {
-            "radiance": r[0], "reflectivity": r[1], "gradient": r[2], "solid_angle": r[3], "view": r[4],
-        },
-    })
-}
-
+/// The one line on the local selection's criteria.
 fn print_selection_summary(sel: &Selection) {
-    let r = rejections(sel);
-    let by = &r["rejected_by"];
+    let r = crate::stats::Criteria::of(sel);
+    let by = &r.rejected_by;
     eprintln!(
         "radtrace: local selection: {} of {} listed (patch, source) pairs ray traced; turned down by radiance {}, reflectivity {}, gradient {}, solid angle {}, view {}",
         sel.pick_count(),
-        r["listed"],
-        by["radiance"],
-        by["reflectivity"],
-        by["gradient"],
-        by["solid_angle"],
-        by["view"]
+        r.listed,
+        by.radiance,
+        by.reflectivity,
+        by.gradient,
+        by.solid_angle,
+        by.view
     );
-}
-
-/// The `selection` object of the statistics JSON.
-fn selection_json(sel: &Selection, st: &SelectSettings) -> serde_json::Value {
-    let mesh = &sel.solution.mesh;
-    let patches_with_rays = (0..mesh.patches.len() as u32)
-        .filter(|&p| !sel.picks(p).is_empty())
-        .count();
-    let mut doc = json!({
-        "method": sel.method,
-        "settings": st,
-        "picks": sel.pick_count(),
-        "patches": mesh.patches.len(),
-        "patches_with_rays": patches_with_rays,
-        "radiant_patches_sampled": sel.sources.len() - sel.sources.iter().filter(|s| matches!(s, radiosity::SourceId::Light(_))).count(),
-    });
-    if sel.method == Method::Local {
-        doc["criteria"] = rejections(sel);
-    }
-    doc
 }
 
 /// Runs pass 1 with a progress bar.
@@ -362,26 +227,6 @@ fn run_solve(scene: &Scene, bvh: &Bvh, st: &SolveSettings, quiet: bool) -> Solut
     sol
 }
 
-/// The `solve` object of the statistics JSON.
-fn solve_json(sol: &Solution) -> serde_json::Value {
-    let s = &sol.stats;
-    json!({
-        "mesh_size": sol.settings.mesh_size,
-        "sources_per_patch": sol.settings.sources_per_patch,
-        "shoot_samples": sol.settings.shoot_samples,
-        "tolerance": sol.settings.tolerance,
-        "patches": s.patches,
-        "elements": s.elements,
-        "vertices": s.vertices,
-        "shots": s.light_shots + s.patch_shots,
-        "light_shots": s.light_shots,
-        "patch_shots": s.patch_shots,
-        "rays": s.rays,
-        "emitted_power": s.emitted_power,
-        "residual": s.residual,
-        "time_s": s.time_s,
-    })
-}
 /// Runs `f` on a pool of `threads` workers (all cores when `None`), passing the
 /// number of workers.
 fn with_threads<T: Send>(threads: Option<u32>, f: impl FnOnce(usize) -> Result<T> + Send) -> Result<T> {

@@ -3,12 +3,10 @@
 use std::path::Path;
 use std::time::Instant;
 
-use serde_json::json;
-
 use super::args::{OnOff, RenderArgs};
-use super::{check_output_ext, load_all, render_json, render_view, source_names, with_threads, write_json};
+use super::{check_output_ext, load_all, render_view, with_threads, write_json};
 use crate::render::{self, Method, Sampler};
-use crate::stats::Timings;
+use crate::stats::{source_names, RenderContext, RenderStats, Timings};
 use crate::{Error, Result};
 
 /// Writes the pictures of `--sib-images` to `dir`.
@@ -164,38 +162,33 @@ pub(super) fn cmd_render(a: RenderArgs) -> Result<()> {
                     "{}",
                     crate::stats::format_table(
                         &format!("Table 2. Shadow image buffer per level: {title}"),
-                        &TABLE2_HEADERS[1..],
+                        &crate::stats::TABLE2_HEADERS[1..],
                         &rows
                     )
                 );
             }
         }
         if let Some(path) = &a.stats {
-            let doc = render_json(
-                &l,
+            let ctx = RenderContext {
+                scene: &l.scene,
+                triangles: l.bvh.triangle_count(),
+                solution: l.solution.as_ref(),
+                threads,
+            };
+            let doc = RenderStats::new(
+                &ctx,
                 &settings,
                 &out,
                 selection.as_ref(),
                 &select_settings,
                 &names,
-                threads,
-                json!(t.to_json(total.elapsed().as_secs_f64())),
+                t.to_json(total.elapsed().as_secs_f64()),
             );
             write_json(path, &doc)?;
         }
         Ok(())
     })
 }
-
-pub(super) const TABLE2_HEADERS: [&str; 7] = [
-    "Figure",
-    "Level",
-    "No. of diffuse hits",
-    "No. of shadow rays",
-    "No. of shadow rays saved",
-    "% Shadow rays saved",
-    "% Shadow rays saved cumulatively",
-];
 
 /// Reads the baseline of `--baseline`: a `--stats` file.
 fn read_baseline(path: &Path) -> Result<crate::stats::Baseline> {

@@ -2,13 +2,11 @@
 
 use std::time::Instant;
 
-use serde_json::json;
-
 use super::args::SolveCmdArgs;
-use super::{load_scene, run_solve, solve_json, with_threads};
+use super::{load_scene, run_solve, with_threads, write_json};
 use crate::accel::Bvh;
 use crate::io::solution;
-use crate::stats::Timings;
+use crate::stats::{SolveFigures, SolveStatsFile, Timings};
 use crate::Result;
 
 pub(super) fn cmd_solve(a: SolveCmdArgs) -> Result<()> {
@@ -21,15 +19,12 @@ pub(super) fn cmd_solve(a: SolveCmdArgs) -> Result<()> {
         let sol = t.time("solve", || run_solve(&scene, &bvh, &st, a.quiet));
         t.time("output", || solution::save(&sol, &scene, &a.output))?;
         if let Some(path) = &a.stats {
-            let doc = json!({
-                "scene": scene.path,
-                "solve": solve_json(&sol),
-                "time_s": t.to_json(total.elapsed().as_secs_f64()),
-            });
-            crate::io::write_atomic(
-                path,
-                (serde_json::to_string_pretty(&doc).expect("json") + "\n").as_bytes(),
-            )?;
+            let doc = SolveStatsFile {
+                scene: scene.path.clone(),
+                solve: SolveFigures::of(&sol),
+                time_s: t.to_json(total.elapsed().as_secs_f64()),
+            };
+            write_json(path, &doc)?;
         }
         if !a.quiet {
             eprintln!("radtrace: solution -> {}", a.output.display());
