@@ -130,6 +130,33 @@ pub struct SelectSettings {
     pub global_sources: u32,
 }
 
+impl SelectSettings {
+    /// Checks the thresholds and ray counts; the error names the command line's flag.
+    pub fn validate(&self) -> Result<()> {
+        let check = |name: &str, v: f32, lo: f32, hi: f32| {
+            if (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(Error::Usage(format!(
+                    "--{name} {v}: must be between {lo} and {hi}"
+                )))
+            }
+        };
+        check("radiance-threshold", self.radiance_threshold, 0.0, f32::MAX)?;
+        check("reflectivity-threshold", self.reflectivity_threshold, 0.0, 1.0)?;
+        check("gradient-threshold", self.gradient_threshold, 0.0, 1.0)?;
+        check(
+            "max-solid-angle",
+            self.max_solid_angle,
+            0.0,
+            4.0 * std::f32::consts::PI,
+        )?;
+        check("view-threshold", self.view_threshold, 0.0, f32::MAX)?;
+        crate::error::at_least_one("hemisphere-rays", self.hemisphere_rays)?;
+        crate::error::at_least_one("area-samples", self.area_samples)
+    }
+}
+
 impl Default for SelectSettings {
     fn default() -> Self {
         SelectSettings {
@@ -420,6 +447,7 @@ pub fn select<'a>(
     settings: &SelectSettings,
     view: Option<&ViewScale>,
 ) -> Result<Selection<'a>> {
+    settings.validate()?;
     let mesh = &sol.mesh;
     let np = mesh.patches.len();
     let nl = scene.lights.len();

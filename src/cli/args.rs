@@ -8,7 +8,7 @@ use crate::radiosity::SolveSettings;
 use crate::render::{Filter, Method, Refine, Sampler, Settings};
 use crate::scene::Scene;
 use crate::selection::{SelectPer, SelectSettings};
-use crate::{Error, Result};
+use crate::Result;
 
 /// radtrace: radiosity ray tracing with source selection and a shadow image buffer
 /// (Kok, Jansen & Woodward 1993). Reads Mitsuba 3 scene files.
@@ -75,22 +75,10 @@ pub struct SolveArgs {
 
 impl SolveArgs {
     pub(super) fn settings(&self, scene: &Scene, seed: u64) -> Result<SolveSettings> {
-        let mesh_size = match self.mesh_size {
-            Some(m) if m.is_finite() && m > 0.0 => m,
-            Some(m) => {
-                return Err(Error::Usage(format!(
-                    "--mesh-size {m}: must be a positive length"
-                )))
-            }
-            None => crate::mesh::default_mesh_size(scene),
-        };
-        if !(0.0..=1.0).contains(&self.solve_tolerance) {
-            return Err(Error::Usage(format!(
-                "--solve-tolerance {}: must be a fraction between 0 and 1",
-                self.solve_tolerance
-            )));
-        }
-        Ok(SolveSettings {
+        let mesh_size = self
+            .mesh_size
+            .unwrap_or_else(|| crate::mesh::default_mesh_size(scene));
+        let settings = SolveSettings {
             mesh_size,
             sources_per_patch: self
                 .sources_per_patch
@@ -99,7 +87,9 @@ impl SolveArgs {
             tolerance: self.solve_tolerance,
             max_shots: self.max_shots,
             seed,
-        })
+        };
+        settings.validate()?;
+        Ok(settings)
     }
 }
 
@@ -146,26 +136,7 @@ pub struct SelectArgs {
 
 impl SelectArgs {
     pub(super) fn settings(&self, area_samples: u32) -> Result<SelectSettings> {
-        let check = |name: &str, v: f32, lo: f32, hi: f32| {
-            if (lo..=hi).contains(&v) {
-                Ok(())
-            } else {
-                Err(Error::Usage(format!(
-                    "--{name} {v}: must be between {lo} and {hi}"
-                )))
-            }
-        };
-        check("radiance-threshold", self.radiance_threshold, 0.0, f32::MAX)?;
-        check("reflectivity-threshold", self.reflectivity_threshold, 0.0, 1.0)?;
-        check("gradient-threshold", self.gradient_threshold, 0.0, 1.0)?;
-        check(
-            "max-solid-angle",
-            self.max_solid_angle,
-            0.0,
-            4.0 * std::f32::consts::PI,
-        )?;
-        check("view-threshold", self.view_threshold, 0.0, f32::MAX)?;
-        Ok(SelectSettings {
+        let settings = SelectSettings {
             per: self.select_per,
             radiance_threshold: self.radiance_threshold,
             reflectivity_threshold: self.reflectivity_threshold,
@@ -176,7 +147,9 @@ impl SelectArgs {
             view_criterion: !self.no_view_criterion,
             area_samples,
             global_sources: self.global_sources,
-        })
+        };
+        settings.validate()?;
+        Ok(settings)
     }
 }
 
@@ -242,18 +215,14 @@ pub struct RefineArgs {
 
 impl RefineArgs {
     pub(super) fn refine(&self, sib: bool, exposure: f32) -> Result<Refine> {
-        if !(self.contrast >= 0.0 && self.contrast <= 1.0) {
-            return Err(Error::Usage(format!(
-                "--contrast {}: must be between 0 and 1",
-                self.contrast
-            )));
-        }
-        Ok(Refine {
+        let refine = Refine {
             max_level: self.max_level,
             contrast: self.contrast,
             exposure,
             sib,
-        })
+        };
+        refine.validate()?;
+        Ok(refine)
     }
 }
 

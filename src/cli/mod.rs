@@ -154,7 +154,7 @@ fn load_all(
         (Some(_), Some(path)) => Some(t.time("load_solution", || solution::load(path, &scene))?),
         (Some((args, seed)), None) => {
             let st = args.settings(&scene, seed)?;
-            Some(t.time("solve", || run_solve(&scene, &bvh, &st, quiet)))
+            Some(t.time("solve", || run_solve(&scene, &bvh, &st, quiet))?)
         }
     };
     Ok(Loaded { scene, bvh, solution })
@@ -207,8 +207,8 @@ fn print_selection_summary(sel: &Selection) {
 }
 
 /// Runs pass 1 with a progress bar.
-fn run_solve(scene: &Scene, bvh: &Bvh, st: &SolveSettings, quiet: bool) -> Solution {
-    let sol = radiosity::solve(scene, bvh, st, &Bars::new(quiet));
+fn run_solve(scene: &Scene, bvh: &Bvh, st: &SolveSettings, quiet: bool) -> Result<Solution> {
+    let sol = radiosity::solve(scene, bvh, st, &Bars::new(quiet))?;
     if !quiet {
         let s = &sol.stats;
         eprintln!(
@@ -224,7 +224,7 @@ fn run_solve(scene: &Scene, bvh: &Bvh, st: &SolveSettings, quiet: bool) -> Solut
             s.time_s
         );
     }
-    sol
+    Ok(sol)
 }
 
 /// Runs `f` on a pool of `threads` workers (all cores when `None`), passing the

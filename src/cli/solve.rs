@@ -16,7 +16,7 @@ pub(super) fn cmd_solve(a: SolveCmdArgs) -> Result<()> {
         let scene = t.time("load", || load_scene(&a.scene, a.quiet))?;
         let st = a.solve.settings(&scene, a.seed)?;
         let bvh = t.time("accel", || Bvh::build(&scene));
-        let sol = t.time("solve", || run_solve(&scene, &bvh, &st, a.quiet));
+        let sol = t.time("solve", || run_solve(&scene, &bvh, &st, a.quiet))?;
         t.time("output", || solution::save(&sol, &scene, &a.output))?;
         if let Some(path) = &a.stats {
             let doc = SolveStatsFile {

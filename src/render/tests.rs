@@ -55,7 +55,7 @@ fn image_mean(img: &crate::image::Image) -> f32 {
 fn no_light_is_counted_twice() {
     let s = room();
     let bvh = Bvh::build(&s);
-    let sol = solve(&s, &bvh, &solve_settings(0.1, 4), &crate::progress::Silent);
+    let sol = solve(&s, &bvh, &solve_settings(0.1, 4), &crate::progress::Silent).unwrap();
     let st = SelectSettings {
         area_samples: 16,
         global_sources: 1,
@@ -90,7 +90,7 @@ fn no_light_is_counted_twice() {
 fn norm_and_local_agree_where_every_source_is_selected() {
     let s = open_scene();
     let bvh = Bvh::build(&s);
-    let sol = solve(&s, &bvh, &solve_settings(0.1, 4), &crate::progress::Silent);
+    let sol = solve(&s, &bvh, &solve_settings(0.1, 4), &crate::progress::Silent).unwrap();
     assert!(sol
         .lists
         .iter()
@@ -135,7 +135,7 @@ fn norm_and_local_agree_where_every_source_is_selected() {
 fn a_selected_radiant_patch_gives_the_light_it_stored() {
     let s = room();
     let bvh = Bvh::build(&s);
-    let sol = solve(&s, &bvh, &solve_settings(0.1, 8), &crate::progress::Silent);
+    let sol = solve(&s, &bvh, &solve_settings(0.1, 8), &crate::progress::Silent).unwrap();
     let patches_listed = sol
         .lists
         .iter()
@@ -169,4 +169,92 @@ fn a_selected_radiant_patch_gives_the_light_it_stored() {
         .map(|c| c.shadow_rays)
         .sum();
     assert!(patch_rays > 0);
+}
+
+/// The message of a usage error, or a panic.
+fn usage<T>(r: crate::Result<T>) -> String {
+    match r {
+        Err(crate::Error::Usage(m)) => m,
+        Err(e) => panic!("expected a usage error, got {e}"),
+        Ok(_) => panic!("expected a usage error, got success"),
+    }
+}
+
+/// The library's entry points refuse bad settings with the command line's one-line
+/// error, whoever calls them (CLI, bench, fuzz targets, library users).
+#[test]
+fn entry_points_refuse_bad_settings_with_the_flags_message() {
+    let s = room();
+    let bvh = Bvh::build(&s);
+    let quiet = &crate::progress::Silent;
+    // render::render
+    let bad = |f: fn(&mut Settings)| {
+        let mut st = settings(Method::Direct);
+        f(&mut st);
+        usage(render(&s, &bvh, &st, None, quiet))
+    };
+    assert_eq!(bad(|st| st.width = 0), "--width 0: must be at least 1");
+    assert_eq!(bad(|st| st.height = 0), "--height 0: must be at least 1");
+    assert_eq!(bad(|st| st.spp = 0), "--spp 0: must be at least 1");
+    assert_eq!(
+        bad(|st| st.area_samples = 0),
+        "--area-samples 0: must be at least 1"
+    );
+    assert_eq!(
+        bad(|st| st.refine.contrast = 2.0),
+        "--contrast 2: must be between 0 and 1"
+    );
+    assert_eq!(
+        bad(|st| st.refine.contrast = f32::NAN),
+        "--contrast NaN: must be between 0 and 1"
+    );
+    assert_eq!(
+        bad(|st| st.refine.max_level = 5),
+        "--max-level 5: must be at most 4"
+    );
+    // radiosity::solve
+    let bad = |f: fn(&mut SolveSettings)| {
+        let mut st = solve_settings(0.1, 4);
+        f(&mut st);
+        usage(solve(&s, &bvh, &st, quiet))
+    };
+    assert_eq!(
+        bad(|st| st.mesh_size = 0.0),
+        "--mesh-size 0: must be a positive length"
+    );
+    assert_eq!(
+        bad(|st| st.mesh_size = -1.0),
+        "--mesh-size -1: must be a positive length"
+    );
+    assert_eq!(
+        bad(|st| st.tolerance = 2.0),
+        "--solve-tolerance 2: must be a fraction between 0 and 1"
+    );
+    assert_eq!(
+        bad(|st| st.shoot_samples = 0),
+        "--shoot-samples 0: must be at least 1"
+    );
+    // selection::select
+    let sol = solve(&s, &bvh, &solve_settings(0.2, 4), quiet).unwrap();
+    let bad = |f: fn(&mut SelectSettings)| {
+        let mut st = SelectSettings::default();
+        f(&mut st);
+        usage(select(&s, &sol, Method::Local, &st, None))
+    };
+    assert_eq!(
+        bad(|st| st.reflectivity_threshold = 2.0),
+        "--reflectivity-threshold 2: must be between 0 and 1"
+    );
+    assert_eq!(
+        bad(|st| st.radiance_threshold = -1.0),
+        format!("--radiance-threshold -1: must be between 0 and {}", f32::MAX)
+    );
+    assert_eq!(
+        bad(|st| st.max_solid_angle = 20.0),
+        "--max-solid-angle 20: must be between 0 and 12.566371"
+    );
+    assert_eq!(
+        bad(|st| st.hemisphere_rays = 0),
+        "--hemisphere-rays 0: must be at least 1"
+    );
 }
