@@ -440,6 +440,7 @@ pub fn judge(j: &Judge, p: u32, entry: &ListEntry, tris: &[[Vec3; 3]]) -> Criter
 
 /// Chooses the ray-traced sources of `method` (`twopass`, `norm`, `local` or
 /// `global`) on every patch of `sol`. `view` is the camera for the view criterion.
+/// Settings outside the command line's ranges are refused ([`SelectSettings::validate`]).
 pub fn select<'a>(
     scene: &Scene,
     sol: &'a Solution,
@@ -448,6 +449,18 @@ pub fn select<'a>(
     view: Option<&ViewScale>,
 ) -> Result<Selection<'a>> {
     settings.validate()?;
+    select_unchecked(scene, sol, method, settings, view)
+}
+
+/// [`select`] without [`SelectSettings::validate`], for tests that push a criterion
+/// past its range (a negative gradient threshold lets every source through).
+pub(crate) fn select_unchecked<'a>(
+    scene: &Scene,
+    sol: &'a Solution,
+    method: Method,
+    settings: &SelectSettings,
+    view: Option<&ViewScale>,
+) -> Result<Selection<'a>> {
     let mesh = &sol.mesh;
     let np = mesh.patches.len();
     let nl = scene.lights.len();

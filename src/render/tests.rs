@@ -6,7 +6,7 @@ use glam::Vec3;
 use super::*;
 use crate::accel::Bvh;
 use crate::radiosity::{solve, SolveSettings, SourceId};
-use crate::selection::{select, Pick, SelectSettings};
+use crate::selection::{select, select_unchecked, Pick, SelectSettings};
 use crate::testutil::{open_scene, room};
 
 fn solve_settings(mesh_size: f32, n: u32) -> SolveSettings {
@@ -106,8 +106,8 @@ fn norm_and_local_agree_where_every_source_is_selected() {
         area_samples: 16,
         ..Default::default()
     };
-    let norm_sel = select(&s, &sol, Method::Norm, &all, None).unwrap();
-    let local_sel = select(&s, &sol, Method::Local, &all, None).unwrap();
+    let norm_sel = select_unchecked(&s, &sol, Method::Norm, &all, None).unwrap();
+    let local_sel = select_unchecked(&s, &sol, Method::Local, &all, None).unwrap();
     let norm = draw(&s, &bvh, &settings(Method::Norm), Some(&norm_sel));
     let local = draw(&s, &bvh, &settings(Method::Local), Some(&local_sel));
     // Every receiving patch lists both lights, so both methods pick both everywhere.
@@ -153,7 +153,7 @@ fn a_selected_radiant_patch_gives_the_light_it_stored() {
         area_samples: 64,
         ..Default::default()
     };
-    let local = select(&s, &sol, Method::Local, &every, None).unwrap();
+    let local = select_unchecked(&s, &sol, Method::Local, &every, None).unwrap();
     assert!(
         local.sources.len() > s.lights.len(),
         "radiant patches are ray traced"
