@@ -95,6 +95,16 @@ impl Error {
 /// radtrace's result type.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
+/// `Ok` if `v`, the value of the command line's flag `--name`, is at least 1; else
+/// the usage error "--name V: must be at least 1" (for settings' `validate`).
+pub fn at_least_one(name: &str, v: u32) -> Result<()> {
+    if v >= 1 {
+        Ok(())
+    } else {
+        Err(Error::Usage(format!("--{name} {v}: must be at least 1")))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

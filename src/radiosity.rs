@@ -26,6 +26,7 @@ use crate::interaction::{ray_epsilon, shadow_ray};
 use crate::mesh::{MeshVertex, RadiosityMesh};
 use crate::progress::Progress;
 use crate::scene::{Light, Rgb, Scene};
+use crate::{Error, Result};
 
 /// What shot light: a light source of the scene or a radiant patch of the mesh.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
@@ -51,6 +52,37 @@ pub struct SolveSettings {
     pub max_shots: u32,
     /// Seed for the sample points.
     pub seed: u64,
+}
+
+impl SolveSettings {
+    /// Checks the settings; the error names the command line's flag.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.mesh_size.is_finite() && self.mesh_size > 0.0) {
+            return Err(Error::Usage(format!(
+                "--mesh-size {}: must be a positive length",
+                self.mesh_size
+            )));
+        }
+        if !(0.0..=1.0).contains(&self.tolerance) {
+            return Err(Error::Usage(format!(
+                "--solve-tolerance {}: must be a fraction between 0 and 1",
+                self.tolerance
+            )));
+        }
+        if self.sources_per_patch > 64 {
+            return Err(Error::Usage(format!(
+                "--sources-per-patch {}: must be at most 64",
+                self.sources_per_patch
+            )));
+        }
+        if self.shoot_samples < 1 {
+            return Err(Error::Usage(format!(
+                "--shoot-samples {}: must be at least 1",
+                self.shoot_samples
+            )));
+        }
+        Ok(())
+    }
 }
 
 /// One source kept apart on a patch: its contribution at each of the patch's vertices.
@@ -238,8 +270,8 @@ pub fn solve(
     accel: &dyn Accel,
     settings: &SolveSettings,
     progress: &dyn Progress,
-) -> Solution {
-    solve_traced(scene, accel, settings, progress).0
+) -> Result<Solution> {
+    Ok(solve_traced(scene, accel, settings, progress)?.0)
 }
 
 /// [`solve`], also returning for each patch the sources whose light went into its
@@ -249,7 +281,8 @@ pub(crate) fn solve_traced(
     accel: &dyn Accel,
     settings: &SolveSettings,
     progress: &dyn Progress,
-) -> (Solution, Vec<BTreeSet<SourceId>>) {
+) -> Result<(Solution, Vec<BTreeSet<SourceId>>)> {
+    settings.validate()?;
     let start = Instant::now();
     let mesh = RadiosityMesh::build(scene, settings.mesh_size);
     let nv = mesh.vertices.len();
@@ -321,7 +354,7 @@ pub(crate) fn solve_traced(
         lists: s.lists,
         stats: s.stats,
     };
-    (solution, s.folded)
+    Ok((solution, s.folded))
 }
 
 /// What one patch received from a shot: occluded and unoccluded radiosity per
@@ -629,7 +662,7 @@ mod tests {
             vec![],
             &[(1, Vec3::splat(1.0 / PI))],
         );
-        let sol = solve(&s, &Bvh::build(&s), &settings(0.05, 1024, 0), &Silent);
+        let sol = solve(&s, &Bvh::build(&s), &settings(0.05, 1024, 0), &Silent).unwrap();
         patch_mean(&sol, &sol.total(), 0)
     }
 
@@ -686,7 +719,7 @@ mod tests {
         );
         let mut st = settings(0.1, 64, 2000);
         st.tolerance = 1e-3;
-        let sol = solve(&s, &Bvh::build(&s), &st, &Silent);
+        let sol = solve(&s, &Bvh::build(&s), &st, &Silent).unwrap();
         let total = sol.total();
         let expect = rho * e / (1.0 - rho);
         for p in 0..6 {
@@ -712,7 +745,7 @@ mod tests {
         );
         let mut st = settings(0.1, 32, 300);
         st.tolerance = 0.02;
-        let sol = solve(&s, &Bvh::build(&s), &st, &Silent);
+        let sol = solve(&s, &Bvh::build(&s), &st, &Silent).unwrap();
         let total = sol.total();
         let absorbed: f64 = sol
             .mesh
@@ -761,10 +794,10 @@ mod tests {
         let bvh = Bvh::build(&s);
         let mut st = settings(0.2, 16, 60);
         st.sources_per_patch = 0;
-        let plain = solve(&s, &bvh, &st, &Silent);
+        let plain = solve(&s, &bvh, &st, &Silent).unwrap();
         assert!(plain.lists.iter().all(|l| l.is_empty()));
         st.sources_per_patch = 2;
-        let (sep, folded) = solve_traced(&s, &bvh, &st, &Silent);
+        let (sep, folded) = solve_traced(&s, &bvh, &st, &Silent).unwrap();
         assert!(
             sep.lists.iter().any(|l| l.len() == 2),
             "some patch keeps two sources"
@@ -832,7 +865,7 @@ mod tests {
         let bvh = Bvh::build(&s);
         let mut st = settings(0.25, 16, 5);
         st.sources_per_patch = 1;
-        let (sol, folded) = solve_traced(&s, &bvh, &st, &Silent);
+        let (sol, folded) = solve_traced(&s, &bvh, &st, &Silent).unwrap();
         let floor_list = &sol.lists[0];
         assert_eq!(floor_list.len(), 1);
         assert_eq!(
@@ -867,12 +900,12 @@ mod tests {
         );
         let bvh = Bvh::build(&s);
         let st = settings(0.25, 8, 30);
-        let a = solve(&s, &bvh, &st, &Silent);
+        let a = solve(&s, &bvh, &st, &Silent).unwrap();
         let b = rayon::ThreadPoolBuilder::new()
             .num_threads(1)
             .build()
             .unwrap()
-            .install(|| solve(&s, &bvh, &st, &Silent));
+            .install(|| solve(&s, &bvh, &st, &Silent).unwrap());
         assert_eq!(a.general, b.general);
         assert_eq!(a.lists, b.lists);
     }

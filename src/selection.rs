@@ -130,6 +130,33 @@ pub struct SelectSettings {
     pub global_sources: u32,
 }
 
+impl SelectSettings {
+    /// Checks the thresholds and ray counts; the error names the command line's flag.
+    pub fn validate(&self) -> Result<()> {
+        let check = |name: &str, v: f32, lo: f32, hi: f32| {
+            if (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(Error::Usage(format!(
+                    "--{name} {v}: must be between {lo} and {hi}"
+                )))
+            }
+        };
+        check("radiance-threshold", self.radiance_threshold, 0.0, f32::MAX)?;
+        check("reflectivity-threshold", self.reflectivity_threshold, 0.0, 1.0)?;
+        check("gradient-threshold", self.gradient_threshold, 0.0, 1.0)?;
+        check(
+            "max-solid-angle",
+            self.max_solid_angle,
+            0.0,
+            4.0 * std::f32::consts::PI,
+        )?;
+        check("view-threshold", self.view_threshold, 0.0, f32::MAX)?;
+        crate::error::at_least_one("hemisphere-rays", self.hemisphere_rays)?;
+        crate::error::at_least_one("area-samples", self.area_samples)
+    }
+}
+
 impl Default for SelectSettings {
     fn default() -> Self {
         SelectSettings {
@@ -413,7 +440,21 @@ pub fn judge(j: &Judge, p: u32, entry: &ListEntry, tris: &[[Vec3; 3]]) -> Criter
 
 /// Chooses the ray-traced sources of `method` (`twopass`, `norm`, `local` or
 /// `global`) on every patch of `sol`. `view` is the camera for the view criterion.
+/// Settings outside the command line's ranges are refused ([`SelectSettings::validate`]).
 pub fn select<'a>(
+    scene: &Scene,
+    sol: &'a Solution,
+    method: Method,
+    settings: &SelectSettings,
+    view: Option<&ViewScale>,
+) -> Result<Selection<'a>> {
+    settings.validate()?;
+    select_unchecked(scene, sol, method, settings, view)
+}
+
+/// [`select`] without [`SelectSettings::validate`], for tests that push a criterion
+/// past its range (a negative gradient threshold lets every source through).
+pub(crate) fn select_unchecked<'a>(
     scene: &Scene,
     sol: &'a Solution,
     method: Method,

@@ -5,7 +5,12 @@
 
 use std::collections::BTreeMap;
 
+use serde::Serialize;
+
 pub use crate::render::counters::{Counters, LevelStats, SourceCount};
+
+mod json;
+pub use json::*;
 
 /// The fully sampled render another one is compared with (`--baseline`).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -117,26 +122,72 @@ fn percent_of(saved: u64, cast: u64) -> f64 {
     }
 }
 
-/// The paper's Table 2 rows for one render: level, diffuse hits, shadow rays, shadow
-/// rays saved, % saved at the level and % saved cumulatively (levels so far).
-pub fn table2_rows(levels: &[LevelStats]) -> Vec<[String; 6]> {
+/// One level of the paper's Table 2, with the percentages of rays saved.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LevelFigures {
+    /// The level (-1, 0, 1, ...).
+    pub level: i32,
+    /// Diffuse hits at the level.
+    pub diffuse_hits: u64,
+    /// Shadow rays cast at the level.
+    pub shadow_rays: u64,
+    /// Shadow rays the SIB saved at the level.
+    pub shadow_rays_saved: u64,
+    /// % of the level's shadow rays saved.
+    pub saved_percent: f64,
+    /// % saved over the levels so far.
+    pub saved_cumulative_percent: f64,
+}
+
+/// The paper's Table 2 figures for one render: per level, diffuse hits, shadow rays,
+/// shadow rays saved, % saved at the level and % saved cumulatively (levels so far).
+pub fn table2_figures(levels: &[LevelStats]) -> Vec<LevelFigures> {
     let (mut saved, mut cast) = (0u64, 0u64);
     levels
         .iter()
         .map(|l| {
             saved += l.shadow_rays_saved;
             cast += l.shadow_rays;
+            LevelFigures {
+                level: l.level,
+                diffuse_hits: l.diffuse_hits,
+                shadow_rays: l.shadow_rays,
+                shadow_rays_saved: l.shadow_rays_saved,
+                saved_percent: percent_of(l.shadow_rays_saved, l.shadow_rays),
+                saved_cumulative_percent: percent_of(saved, cast),
+            }
+        })
+        .collect()
+}
+
+/// [`table2_figures`] as text cells.
+pub fn table2_rows(levels: &[LevelStats]) -> Vec<[String; 6]> {
+    table2_figures(levels)
+        .into_iter()
+        .map(|f| {
             [
-                l.level.to_string(),
-                l.diffuse_hits.to_string(),
-                l.shadow_rays.to_string(),
-                l.shadow_rays_saved.to_string(),
-                format!("{:.0}", percent_of(l.shadow_rays_saved, l.shadow_rays)),
-                format!("{:.0}", percent_of(saved, cast)),
+                f.level.to_string(),
+                f.diffuse_hits.to_string(),
+                f.shadow_rays.to_string(),
+                f.shadow_rays_saved.to_string(),
+                format!("{:.0}", f.saved_percent),
+                format!("{:.0}", f.saved_cumulative_percent),
             ]
         })
         .collect()
 }
+
+/// The column headers of the paper's Table 2 (the first, "Figure", only in
+/// `radtrace tables`).
+pub const TABLE2_HEADERS: [&str; 7] = [
+    "Figure",
+    "Level",
+    "No. of diffuse hits",
+    "No. of shadow rays",
+    "No. of shadow rays saved",
+    "% Shadow rays saved",
+    "% Shadow rays saved cumulatively",
+];
 
 /// A text table: `title`, then the column headers and rows, each column as wide as
 /// its widest cell; the first column left-aligned, the others right-aligned.

@@ -401,8 +401,10 @@ pub fn run(scene: &Scene, plan: &Plan, threads: usize) -> Result<Report> {
             // The 1-thread runs alternate with the all-threads runs, so that a slow
             // spell of the machine falls on both.
             let one_pool = plan.solve_scaling.then_some(&one);
+            st.validate()?;
             let (solve_s, solve_1t_s, sol) = best_of_interleaved(plan.repeats, one_pool, || {
                 crate::radiosity::solve(scene, &bvh, st, &crate::progress::Silent)
+                    .expect("settings validated")
             });
             for view in 0..scene.sensors.len() {
                 let render = || render_view(scene, &bvh, &sol, view, plan);

@@ -632,7 +632,8 @@ mod tests {
         SOLVED.get_or_init(|| {
             let scene = box_scene();
             let sol =
-                crate::radiosity::solve(&scene, &Bvh::build(&scene), &settings(), &crate::progress::Silent);
+                crate::radiosity::solve(&scene, &Bvh::build(&scene), &settings(), &crate::progress::Silent)
+                    .unwrap();
             (scene, sol)
         })
     }

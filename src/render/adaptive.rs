@@ -35,6 +35,7 @@ use crate::image::{srgb_encode, Image};
 use crate::progress::Progress;
 use crate::sampling::{cell_seed, derive, uniform2, Stream};
 use crate::scene::Rgb;
+use crate::{Error, Result};
 
 /// "No sample".
 const NONE: u32 = u32::MAX;
@@ -194,6 +195,30 @@ pub struct Refine {
     pub exposure: f32,
     /// Whether the SIB's neighbours are reused (off: every shadow ray is cast).
     pub sib: bool,
+}
+
+impl Refine {
+    /// The highest level allowed (`4^4` = 256 samples per pixel at most).
+    pub const MAX_LEVEL: u32 = 4;
+
+    /// Checks the levels and the difference criterion; the error names the command
+    /// line's flag.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.contrast >= 0.0 && self.contrast <= 1.0) {
+            return Err(Error::Usage(format!(
+                "--contrast {}: must be between 0 and 1",
+                self.contrast
+            )));
+        }
+        if self.max_level > Self::MAX_LEVEL {
+            return Err(Error::Usage(format!(
+                "--max-level {}: must be at most {}",
+                self.max_level,
+                Self::MAX_LEVEL
+            )));
+        }
+        Ok(())
+    }
 }
 
 impl Default for Refine {

@@ -83,6 +83,19 @@ pub struct Settings {
     pub refine: Refine,
 }
 
+impl Settings {
+    /// Checks the image size, sample counts and (for every sampler, as the command
+    /// line does) [`Refine::validate`]; the error names the command line's flag.
+    pub fn validate(&self) -> Result<()> {
+        use crate::error::at_least_one;
+        at_least_one("width", self.width)?;
+        at_least_one("height", self.height)?;
+        at_least_one("spp", self.spp)?;
+        at_least_one("area-samples", self.area_samples)?;
+        self.refine.validate()
+    }
+}
+
 /// What one rendering produces.
 #[derive(Debug, Clone)]
 pub struct Output {
@@ -113,6 +126,7 @@ pub fn render(
     selection: Option<&Selection>,
     progress: &dyn Progress,
 ) -> Result<Output> {
+    settings.validate()?;
     let tracer = match (settings.method, selection) {
         (Method::Direct, _) => Tracer::new(scene, accel, settings),
         (_, Some(sel)) => Tracer::with_selection(scene, accel, settings, sel),

@@ -5,9 +5,9 @@ use glam::Vec3;
 
 use super::*;
 use crate::accel::Bvh;
-use crate::radiosity::{solve, SourceId};
+use crate::radiosity::{solve, SolveSettings, SourceId};
 use crate::selection::tests::solve_settings;
-use crate::selection::{select, Pick, SelectSettings};
+use crate::selection::{select, select_unchecked, Pick, SelectSettings};
 use crate::testutil::{open_scene, room};
 
 fn mean(c: Vec3) -> f32 {
@@ -45,7 +45,7 @@ fn image_mean(img: &crate::image::Image) -> f32 {
 fn no_light_is_counted_twice() {
     let s = room();
     let bvh = Bvh::build(&s);
-    let sol = solve(&s, &bvh, &solve_settings(0.1, 4), &crate::progress::Silent);
+    let sol = solve(&s, &bvh, &solve_settings(0.1, 4), &crate::progress::Silent).unwrap();
     let st = SelectSettings {
         area_samples: 16,
         global_sources: 1,
@@ -80,7 +80,7 @@ fn no_light_is_counted_twice() {
 fn norm_and_local_agree_where_every_source_is_selected() {
     let s = open_scene();
     let bvh = Bvh::build(&s);
-    let sol = solve(&s, &bvh, &solve_settings(0.1, 4), &crate::progress::Silent);
+    let sol = solve(&s, &bvh, &solve_settings(0.1, 4), &crate::progress::Silent).unwrap();
     assert!(sol
         .lists
         .iter()
@@ -96,8 +96,8 @@ fn norm_and_local_agree_where_every_source_is_selected() {
         area_samples: 16,
         ..Default::default()
     };
-    let norm_sel = select(&s, &sol, Method::Norm, &all, None).unwrap();
-    let local_sel = select(&s, &sol, Method::Local, &all, None).unwrap();
+    let norm_sel = select_unchecked(&s, &sol, Method::Norm, &all, None).unwrap();
+    let local_sel = select_unchecked(&s, &sol, Method::Local, &all, None).unwrap();
     let norm = draw(&s, &bvh, &settings(Method::Norm), Some(&norm_sel));
     let local = draw(&s, &bvh, &settings(Method::Local), Some(&local_sel));
     // Every receiving patch lists both lights, so both methods pick both everywhere.
@@ -125,7 +125,7 @@ fn norm_and_local_agree_where_every_source_is_selected() {
 fn a_selected_radiant_patch_gives_the_light_it_stored() {
     let s = room();
     let bvh = Bvh::build(&s);
-    let sol = solve(&s, &bvh, &solve_settings(0.1, 8), &crate::progress::Silent);
+    let sol = solve(&s, &bvh, &solve_settings(0.1, 8), &crate::progress::Silent).unwrap();
     let patches_listed = sol
         .lists
         .iter()
@@ -143,7 +143,7 @@ fn a_selected_radiant_patch_gives_the_light_it_stored() {
         area_samples: 64,
         ..Default::default()
     };
-    let local = select(&s, &sol, Method::Local, &every, None).unwrap();
+    let local = select_unchecked(&s, &sol, Method::Local, &every, None).unwrap();
     assert!(
         local.sources.len() > s.lights.len(),
         "radiant patches are ray traced"
@@ -174,7 +174,7 @@ fn global_traces_a_light_only_where_it_is_kept_apart() {
         *radiance = Vec3::splat(40.0);
     }
     let bvh = Bvh::build(&s);
-    let sol = solve(&s, &bvh, &solve_settings(0.1, 1), &crate::progress::Silent);
+    let sol = solve(&s, &bvh, &solve_settings(0.1, 1), &crate::progress::Silent).unwrap();
     let st = SelectSettings {
         area_samples: 16,
         global_sources: 1000,
@@ -194,4 +194,92 @@ fn global_traces_a_light_only_where_it_is_kept_apart() {
     let a = image_mean(&draw(&s, &bvh, &settings(Method::Twopass), Some(&twopass)).image);
     let b = image_mean(&draw(&s, &bvh, &settings(Method::Global), Some(&global)).image);
     assert!((a - b).abs() < 0.03 * a, "twopass {a} vs global {b}");
+}
+
+/// The message of a usage error, or a panic.
+fn usage<T>(r: crate::Result<T>) -> String {
+    match r {
+        Err(crate::Error::Usage(m)) => m,
+        Err(e) => panic!("expected a usage error, got {e}"),
+        Ok(_) => panic!("expected a usage error, got success"),
+    }
+}
+
+/// The library's entry points refuse bad settings with the command line's one-line
+/// error, whoever calls them (CLI, bench, fuzz targets, library users).
+#[test]
+fn entry_points_refuse_bad_settings_with_the_flags_message() {
+    let s = room();
+    let bvh = Bvh::build(&s);
+    let quiet = &crate::progress::Silent;
+    // render::render
+    let bad = |f: fn(&mut Settings)| {
+        let mut st = settings(Method::Direct);
+        f(&mut st);
+        usage(render(&s, &bvh, &st, None, quiet))
+    };
+    assert_eq!(bad(|st| st.width = 0), "--width 0: must be at least 1");
+    assert_eq!(bad(|st| st.height = 0), "--height 0: must be at least 1");
+    assert_eq!(bad(|st| st.spp = 0), "--spp 0: must be at least 1");
+    assert_eq!(
+        bad(|st| st.area_samples = 0),
+        "--area-samples 0: must be at least 1"
+    );
+    assert_eq!(
+        bad(|st| st.refine.contrast = 2.0),
+        "--contrast 2: must be between 0 and 1"
+    );
+    assert_eq!(
+        bad(|st| st.refine.contrast = f32::NAN),
+        "--contrast NaN: must be between 0 and 1"
+    );
+    assert_eq!(
+        bad(|st| st.refine.max_level = 5),
+        "--max-level 5: must be at most 4"
+    );
+    // radiosity::solve
+    let bad = |f: fn(&mut SolveSettings)| {
+        let mut st = solve_settings(0.1, 4);
+        f(&mut st);
+        usage(solve(&s, &bvh, &st, quiet))
+    };
+    assert_eq!(
+        bad(|st| st.mesh_size = 0.0),
+        "--mesh-size 0: must be a positive length"
+    );
+    assert_eq!(
+        bad(|st| st.mesh_size = -1.0),
+        "--mesh-size -1: must be a positive length"
+    );
+    assert_eq!(
+        bad(|st| st.tolerance = 2.0),
+        "--solve-tolerance 2: must be a fraction between 0 and 1"
+    );
+    assert_eq!(
+        bad(|st| st.shoot_samples = 0),
+        "--shoot-samples 0: must be at least 1"
+    );
+    // selection::select
+    let sol = solve(&s, &bvh, &solve_settings(0.2, 4), quiet).unwrap();
+    let bad = |f: fn(&mut SelectSettings)| {
+        let mut st = SelectSettings::default();
+        f(&mut st);
+        usage(select(&s, &sol, Method::Local, &st, None))
+    };
+    assert_eq!(
+        bad(|st| st.reflectivity_threshold = 2.0),
+        "--reflectivity-threshold 2: must be between 0 and 1"
+    );
+    assert_eq!(
+        bad(|st| st.radiance_threshold = -1.0),
+        format!("--radiance-threshold -1: must be between 0 and {}", f32::MAX)
+    );
+    assert_eq!(
+        bad(|st| st.max_solid_angle = 20.0),
+        "--max-solid-angle 20: must be between 0 and 12.566371"
+    );
+    assert_eq!(
+        bad(|st| st.hemisphere_rays = 0),
+        "--hemisphere-rays 0: must be at least 1"
+    );
 }

@@ -53,7 +53,7 @@ fn verdict(sel: &Selection, shape: usize, source: SourceId) -> Criteria {
 fn each_criterion_decides_its_constructed_case() {
     let s = criteria_scene();
     let bvh = Bvh::build(&s);
-    let sol = solve(&s, &bvh, &solve_settings(0.1, 4), &crate::progress::Silent);
+    let sol = solve(&s, &bvh, &solve_settings(0.1, 4), &crate::progress::Silent).unwrap();
     let sel = select(&s, &sol, Method::Local, &SelectSettings::default(), None).unwrap();
     let point = SourceId::Light(0);
 
@@ -90,7 +90,7 @@ fn each_criterion_decides_its_constructed_case() {
 fn radiance_and_view_criteria_follow_their_thresholds() {
     let s = criteria_scene();
     let bvh = Bvh::build(&s);
-    let sol = solve(&s, &bvh, &solve_settings(0.1, 4), &crate::progress::Silent);
+    let sol = solve(&s, &bvh, &solve_settings(0.1, 4), &crate::progress::Silent).unwrap();
     let half = |st: &SelectSettings, view: Option<&ViewScale>| {
         let sel = select(&s, &sol, Method::Local, st, view).unwrap();
         verdict(&sel, 1, SourceId::Light(0))
@@ -138,7 +138,7 @@ fn solid_angles_match_the_closed_form_and_set_the_ray_count() {
     // Rays: Omega / 2pi x hemisphere rays, between 1 and area_samples.
     let s = criteria_scene();
     let bvh = Bvh::build(&s);
-    let sol = solve(&s, &bvh, &solve_settings(0.1, 4), &crate::progress::Silent);
+    let sol = solve(&s, &bvh, &solve_settings(0.1, 4), &crate::progress::Silent).unwrap();
     let sel = select(&s, &sol, Method::Local, &SelectSettings::default(), None).unwrap();
     let far = verdict(&sel, 0, SourceId::Light(1));
     let want = (far.solid_angle_sr / (2.0 * PI) * 4096.0)
@@ -152,7 +152,7 @@ fn solid_angles_match_the_closed_form_and_set_the_ray_count() {
 fn per_object_selection_shares_one_choice_across_an_objects_patches() {
     let s = room();
     let bvh = Bvh::build(&s);
-    let sol = solve(&s, &bvh, &solve_settings(0.1, 2), &crate::progress::Silent);
+    let sol = solve(&s, &bvh, &solve_settings(0.1, 2), &crate::progress::Silent).unwrap();
     let per_patch = select(&s, &sol, Method::Local, &SelectSettings::default(), None).unwrap();
     let object = SelectSettings {
         per: SelectPer::Object,
@@ -191,7 +191,7 @@ fn per_object_selection_shares_one_choice_across_an_objects_patches() {
 fn norm_needs_every_light_kept_apart() {
     let s = room();
     let bvh = Bvh::build(&s);
-    let sol = solve(&s, &bvh, &solve_settings(0.2, 1), &crate::progress::Silent);
+    let sol = solve(&s, &bvh, &solve_settings(0.2, 1), &crate::progress::Silent).unwrap();
     let err = select(&s, &sol, Method::Norm, &SelectSettings::default(), None)
         .err()
         .expect("n = 1 < 2 lights")
@@ -218,7 +218,8 @@ fn patch_source_solid_angle_from_the_domain_equals_the_elements() {
         &Bvh::build(&sc),
         &solve_settings(0.2, 4),
         &crate::progress::Silent,
-    );
+    )
+    .unwrap();
     let p = sol.mesh.shape_first_patch[0];
     let flat = source_triangles(&sc, &sol, SourceId::Patch(p));
     assert_eq!(flat.len(), 2);

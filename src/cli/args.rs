@@ -1,0 +1,498 @@
+//! The command line's arguments (clap) and their conversion to the core's settings.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+
+use crate::radiosity::SolveSettings;
+use crate::render::{Filter, Method, Refine, Sampler, Settings};
+use crate::scene::Scene;
+use crate::selection::{SelectPer, SelectSettings};
+use crate::Result;
+
+/// radtrace: radiosity ray tracing with source selection and a shadow image buffer
+/// (Kok, Jansen & Woodward 1993). Reads Mitsuba 3 scene files.
+#[derive(Debug, Parser)]
+#[command(name = "radtrace", version, about, long_about = None)]
+pub struct Cli {
+    /// The command.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Render a view of a scene to an image.
+    Render(RenderArgs),
+    /// Compute the view-independent radiosity solution (pass 1) and save it.
+    Solve(SolveCmdArgs),
+    /// Print what a scene contains (shapes, lights, views).
+    Info(InfoArgs),
+    /// Write a Bezier patch file (.bpt) as a triangle mesh (.obj), e.g. for Mitsuba.
+    Tessellate(TessellateArgs),
+    /// Compare two images: mean FLIP and RMSE.
+    Compare(CompareArgs),
+    /// Reproduce the paper's Tables 1-3 for every view of a scene: fully sampled,
+    /// local selection, shadow image buffer, and both.
+    Tables(TablesArgs),
+    /// Measure ray throughput (camera, shadow, incoherent rays), BVH build, the
+    /// radiosity solve and peak memory.
+    Bench(BenchArgs),
+}
+
+/// Options shared by commands that load a scene.
+#[derive(Debug, Args)]
+pub struct SceneArgs {
+    /// The scene file (Mitsuba 3 XML).
+    pub scene: PathBuf,
+    /// Set a scene parameter declared with <default name=...> (repeatable).
+    #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
+    pub defines: Vec<(String, String)>,
+}
+
+/// Settings of the radiosity pass (pass 1).
+#[derive(Debug, Args)]
+pub struct SolveArgs {
+    /// Largest radiosity element edge, in scene units [default: the scene's
+    /// bounding-box diagonal / 40].
+    #[arg(long, value_name = "SIZE", allow_negative_numbers = true)]
+    pub(super) mesh_size: Option<f32>,
+    /// n: sources kept apart, per patch, from the general radiosity (lights are never
+    /// evicted by radiant patches) [default: the number of lights, at least 4].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=64))]
+    pub(super) sources_per_patch: Option<u32>,
+    /// Sample cells per area light or shooting patch in each shot.
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub(super) shoot_samples: u32,
+    /// Stop when the unshot power falls below this fraction of the emitted power.
+    #[arg(long, default_value_t = 0.01, value_name = "FRACTION")]
+    pub(super) solve_tolerance: f32,
+    /// Stop after this many patch shots at most.
+    #[arg(long, default_value_t = 20000)]
+    pub(super) max_shots: u32,
+}
+
+impl SolveArgs {
+    pub(super) fn settings(&self, scene: &Scene, seed: u64) -> Result<SolveSettings> {
+        let mesh_size = self
+            .mesh_size
+            .unwrap_or_else(|| crate::mesh::default_mesh_size(scene));
+        let settings = SolveSettings {
+            mesh_size,
+            sources_per_patch: self
+                .sources_per_patch
+                .unwrap_or((scene.lights.len() as u32).clamp(4, 64)),
+            shoot_samples: self.shoot_samples,
+            tolerance: self.solve_tolerance,
+            max_shots: self.max_shots,
+            seed,
+        };
+        settings.validate()?;
+        Ok(settings)
+    }
+}
+
+/// Source selection (paper Sect. 3): thresholds of the five criteria, per patch or
+/// per object, and the global selection's size.
+#[derive(Debug, Args)]
+pub struct SelectArgs {
+    /// Make the local selection per patch, or per object (shape) so that patch
+    /// boundaries cannot show.
+    #[arg(long, value_enum, default_value_t = SelectPer::Patch)]
+    pub(super) select_per: SelectPer,
+    /// Radiance criterion: a source must bring at least this fraction of a patch's
+    /// radiosity (unoccluded, where largest) to be ray traced there.
+    #[arg(long, default_value_t = SelectSettings::default().radiance_threshold, value_name = "FRACTION")]
+    pub(super) radiance_threshold: f32,
+    /// Reflectivity criterion: no shadow rays from patches whose diffuse reflectance
+    /// (mean of RGB) is below this.
+    #[arg(long, default_value_t = SelectSettings::default().reflectivity_threshold, value_name = "REFLECTANCE")]
+    pub(super) reflectivity_threshold: f32,
+    /// Gradient criterion: a source must be partly visible across a patch (its
+    /// visibility at the patch's vertices spreading by more than this) to be ray traced.
+    #[arg(long, default_value_t = SelectSettings::default().gradient_threshold, value_name = "FRACTION")]
+    pub(super) gradient_threshold: f32,
+    /// Solid-angle criterion: sources seen under a larger solid angle (steradians,
+    /// mean over the patch) are left to the radiosity.
+    #[arg(long, default_value_t = SelectSettings::default().max_solid_angle, value_name = "SR")]
+    pub(super) max_solid_angle: f32,
+    /// Shadow rays for a whole hemisphere: an area source seen under solid angle
+    /// Omega gets max(1, round(Omega / 2pi x this)) rays, at most --area-samples.
+    #[arg(long, default_value_t = SelectSettings::default().hemisphere_rays, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    pub(super) hemisphere_rays: u32,
+    /// View criterion: patches whose mesh elements look smaller than this many
+    /// pixels are left to the mesh.
+    #[arg(long, default_value_t = SelectSettings::default().view_threshold, value_name = "PIXELS")]
+    pub(super) view_threshold: f32,
+    /// Do not apply the view criterion (animation: the selection must not depend on
+    /// the camera).
+    #[arg(long)]
+    pub(super) no_view_criterion: bool,
+    /// Sources ray traced everywhere by --method global.
+    #[arg(long, default_value_t = SelectSettings::default().global_sources)]
+    pub(super) global_sources: u32,
+}
+
+impl SelectArgs {
+    pub(super) fn settings(&self, area_samples: u32) -> Result<SelectSettings> {
+        let settings = SelectSettings {
+            per: self.select_per,
+            radiance_threshold: self.radiance_threshold,
+            reflectivity_threshold: self.reflectivity_threshold,
+            gradient_threshold: self.gradient_threshold,
+            max_solid_angle: self.max_solid_angle,
+            hemisphere_rays: self.hemisphere_rays,
+            view_threshold: self.view_threshold,
+            view_criterion: !self.no_view_criterion,
+            area_samples,
+            global_sources: self.global_sources,
+        };
+        settings.validate()?;
+        Ok(settings)
+    }
+}
+
+/// Implements clap's `ValueEnum` for a core type from its `name()`, so that clap
+/// stays in the CLI: `value_enum!(Type { Variant => "help", ... })`.
+macro_rules! value_enum {
+    ($t:ident { $($v:ident => $help:literal),+ $(,)? }) => {
+        impl clap::ValueEnum for $t {
+            fn value_variants<'a>() -> &'a [Self] {
+                &[$($t::$v),+]
+            }
+            fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+                let help = match self {
+                    $($t::$v => $help),+
+                };
+                Some(clap::builder::PossibleValue::new(self.name()).help(help))
+            }
+        }
+    };
+}
+
+value_enum!(Method {
+    Direct => "Exact direct light: shadow rays to every light at every diffuse hit; no indirect light",
+    Twopass => "Standard two-pass radiosity: shading from the radiosity mesh alone (Fig. 7)",
+    Norm => "Radiosity for indirect light, every light ray traced at fixed counts (Fig. 8)",
+    Local => "Per-patch source selection with the five criteria of Sect. 3 (Fig. 9)",
+    Global => "The --global-sources strongest sources ray traced everywhere",
+});
+value_enum!(Sampler {
+    Adaptive => "The paper's adaptive refinement with the shadow image buffer",
+    Uniform => "--spp jittered samples in every pixel, every shadow ray cast",
+});
+value_enum!(Filter {
+    Box => "Equal weights for the samples inside the pixel's square (the paper's)",
+    Gaussian => "Mitsuba's Gaussian: stddev 0.5 px, radius 2 px",
+});
+value_enum!(SelectPer {
+    Patch => "Each patch chooses its own sources",
+    Object => "All patches of an object share one choice (paper Sect. 3)",
+});
+
+/// On or off.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum OnOff {
+    /// On.
+    On,
+    /// Off.
+    Off,
+}
+
+/// The adaptive sampler (paper Sect. 5 and 6).
+#[derive(Debug, Args)]
+pub struct RefineArgs {
+    /// Highest refinement level of the adaptive sampler: at most 4^N samples per
+    /// pixel (level -1: one per 2x2 pixels; level 0: one per pixel).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(0..=4))]
+    pub(super) max_level: u32,
+    /// Difference criterion: refine where neighbouring samples' display values
+    /// (sRGB, 0..1, after --exposure) differ by more than this in a channel.
+    #[arg(long, default_value_t = 0.05, value_name = "DIFFERENCE")]
+    pub(super) contrast: f32,
+}
+
+impl RefineArgs {
+    pub(super) fn refine(&self, sib: bool, exposure: f32) -> Result<Refine> {
+        let refine = Refine {
+            max_level: self.max_level,
+            contrast: self.contrast,
+            exposure,
+            sib,
+        };
+        refine.validate()?;
+        Ok(refine)
+    }
+}
+
+/// `radtrace solve`.
+#[derive(Debug, Args)]
+pub struct SolveCmdArgs {
+    #[command(flatten)]
+    pub(super) scene: SceneArgs,
+    /// The solution file to write.
+    #[arg(short, long)]
+    pub(super) output: PathBuf,
+    #[command(flatten)]
+    pub(super) solve: SolveArgs,
+    /// Seed for the shooting samples.
+    #[arg(long, default_value_t = 0)]
+    pub(super) seed: u64,
+    /// Worker threads [default: all cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub(super) threads: Option<u32>,
+    /// Write the solve's figures as JSON to this file.
+    #[arg(long, value_name = "FILE")]
+    pub(super) stats: Option<PathBuf>,
+    /// No progress bar and no warnings on stderr.
+    #[arg(short, long)]
+    pub(super) quiet: bool,
+}
+
+/// `radtrace render`.
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    #[command(flatten)]
+    pub(super) scene: SceneArgs,
+    /// Output image: .exr (linear radiance) or .png (8-bit sRGB).
+    #[arg(short, long)]
+    pub(super) output: PathBuf,
+    /// How direct light is computed.
+    #[arg(long, value_enum, default_value_t = Method::Local)]
+    pub(super) method: Method,
+    /// Which view (sensor) of the scene, from 0.
+    #[arg(long, default_value_t = 0)]
+    pub(super) view: usize,
+    /// Image sampler: `adaptive` (the paper's refinement from level -1 to
+    /// --max-level, with the shadow image buffer) or `uniform` (--spp samples in every
+    /// pixel) [default: adaptive; uniform when --spp is given].
+    #[arg(long, value_enum)]
+    pub(super) sampler: Option<Sampler>,
+    /// Samples per pixel of the uniform sampler [default: the scene's sampler, else 16].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    pub(super) spp: Option<u32>,
+    #[command(flatten)]
+    pub(super) refine: RefineArgs,
+    /// Shadow image buffer: `on` takes a light point's visibility from the
+    /// neighbouring samples where they agree, `off` casts every shadow ray (the fully
+    /// sampled picture) [default: on for local and global, off otherwise].
+    #[arg(long, value_enum)]
+    pub(super) sib: Option<OnOff>,
+    /// Write pictures of the method to this folder: the shadow image of each
+    /// ray-traced source (sib-NN-NAME.png), samples per pixel (density.png) and shadow
+    /// rays per pixel (rays.png). Adaptive sampler only.
+    #[arg(long, value_name = "DIR")]
+    pub(super) sib_images: Option<PathBuf>,
+    #[command(flatten)]
+    pub(super) image: ImageArgs,
+    /// Exposure in stops applied to PNG output (EXR is always written unscaled).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub(super) exposure: f32,
+    /// Write statistics (rays, hits, timings) as JSON to this file.
+    #[arg(long, value_name = "FILE")]
+    pub(super) stats: Option<PathBuf>,
+    /// No progress bar and no warnings on stderr.
+    #[arg(short, long)]
+    pub(super) quiet: bool,
+    /// Print the statistics as a text table in the layout of the paper's Table 1
+    /// (diffuse hits, shadow rays, rays per hit; per source below).
+    #[arg(long)]
+    pub(super) stats_table: bool,
+    /// A --stats file of a fully sampled render (--method norm) of the same view: the
+    /// table then shows both rows and the shadow rays saved.
+    #[arg(long, value_name = "FILE")]
+    pub(super) baseline: Option<PathBuf>,
+    /// Write a picture of the selection (PNG): each patch coloured by the sources ray
+    /// traced on it, brighter for more shadow rays per hit.
+    #[arg(long, value_name = "FILE")]
+    pub(super) selection_map: Option<PathBuf>,
+    /// Reuse a radiosity solution saved by `radtrace solve` instead of solving.
+    #[arg(long, value_name = "FILE")]
+    pub(super) solution: Option<PathBuf>,
+    #[command(flatten)]
+    pub(super) solve: SolveArgs,
+    #[command(flatten)]
+    pub(super) select: SelectArgs,
+}
+
+/// Image and sampling options shared by `render` and `tables`.
+#[derive(Debug, Args)]
+pub struct ImageArgs {
+    /// Seed for all random choices; the same seed gives the same image.
+    #[arg(long, default_value_t = 0)]
+    pub(super) seed: u64,
+    /// Worker threads [default: all cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub(super) threads: Option<u32>,
+    /// Image width in pixels [default: the scene's film].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub(super) width: Option<u32>,
+    /// Image height in pixels [default: the scene's film].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub(super) height: Option<u32>,
+    /// Sub-sources of each area light (and selected radiant patch): the shadow rays
+    /// `norm` casts to it at each diffuse hit, and the most `local` casts.
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    pub(super) area_samples: u32,
+    /// Maximum number of mirror reflections followed.
+    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u32).range(0..=64))]
+    pub(super) max_depth: u32,
+    /// Pixel reconstruction filter.
+    #[arg(long, value_enum, default_value_t = Filter::Gaussian)]
+    pub(super) filter: Filter,
+}
+
+/// `radtrace tables`.
+#[derive(Debug, Args)]
+pub struct TablesArgs {
+    #[command(flatten)]
+    pub(super) scene: SceneArgs,
+    /// Views (sensors) to render, e.g. `0,1` [default: every view of the scene].
+    #[arg(long, value_delimiter = ',')]
+    pub(super) views: Vec<usize>,
+    /// Write each view's four images (viewK-RUN.exr) and statistics (viewK-RUN.json)
+    /// to this folder.
+    #[arg(short, long, value_name = "DIR")]
+    pub(super) output: Option<PathBuf>,
+    /// Print the figures as JSON instead of tables.
+    #[arg(long)]
+    pub(super) json: bool,
+    #[command(flatten)]
+    pub(super) image: ImageArgs,
+    #[command(flatten)]
+    pub(super) refine: RefineArgs,
+    /// Reuse a radiosity solution saved by `radtrace solve` instead of solving.
+    #[arg(long, value_name = "FILE")]
+    pub(super) solution: Option<PathBuf>,
+    #[command(flatten)]
+    pub(super) solve: SolveArgs,
+    #[command(flatten)]
+    pub(super) select: SelectArgs,
+    /// No progress bars and no warnings on stderr.
+    #[arg(short, long)]
+    pub(super) quiet: bool,
+}
+
+/// `radtrace info`.
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    #[command(flatten)]
+    pub(super) scene: SceneArgs,
+}
+
+/// `radtrace tessellate`.
+#[derive(Debug, Args)]
+pub struct TessellateArgs {
+    /// Bezier patch file (.bpt).
+    pub(super) input: PathBuf,
+    /// Output mesh (.obj).
+    #[arg(short, long)]
+    pub(super) output: PathBuf,
+    /// Radiosity patches per Bezier patch side.
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub(super) coarse: u32,
+    /// Quads per radiosity patch side (ray-tracing resolution).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub(super) fine: u32,
+}
+
+/// `radtrace compare`.
+#[derive(Debug, Args)]
+pub struct CompareArgs {
+    /// Reference image (.exr or .png).
+    pub(super) reference: PathBuf,
+    /// Test image (.exr or .png).
+    pub(super) test: PathBuf,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub(super) json: bool,
+    /// Write the FLIP error map (magma colours) to this PNG.
+    #[arg(long, value_name = "FILE")]
+    pub(super) error_map: Option<PathBuf>,
+}
+
+/// `radtrace bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    #[command(flatten)]
+    pub(super) scene: SceneArgs,
+    /// Which view (sensor) the camera rays come from, from 0.
+    #[arg(long, default_value_t = 0)]
+    pub(super) view: usize,
+    /// Camera rays per row [default: the scene's film].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub(super) width: Option<u32>,
+    /// Rows of camera rays [default: the scene's film].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub(super) height: Option<u32>,
+    /// Shadow rays per camera-ray hit (to points on the lights, in turn).
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(0..=1024))]
+    pub(super) shadow_rays: u32,
+    /// Incoherent (cosine-distributed bounce) rays per camera-ray hit.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(0..=1024))]
+    pub(super) bounce_rays: u32,
+    /// Times each measurement is repeated; the best is reported.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub(super) repeats: u32,
+    /// Seed of the light points and bounce directions (and of the solve).
+    #[arg(long, default_value_t = 0)]
+    pub(super) seed: u64,
+    /// Worker threads of the "all threads" figures [default: all cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub(super) threads: Option<u32>,
+    /// Skip the radiosity solve (and the renders of the views, which need it).
+    #[arg(long)]
+    pub(super) no_solve: bool,
+    /// Also solve and render on one thread, for the 1-vs-all-threads scaling.
+    #[arg(long, conflicts_with = "no_solve")]
+    pub(super) solve_scaling: bool,
+    #[command(flatten)]
+    pub(super) solve: SolveArgs,
+    /// Print JSON instead of the table.
+    #[arg(long)]
+    pub(super) json: bool,
+    /// Write the triangles, the ray sets and radtrace's answers to this directory as
+    /// .npy files (for tools/compare-peers.py).
+    #[arg(long, value_name = "DIR")]
+    pub(super) dump: Option<PathBuf>,
+    /// No warnings on stderr.
+    #[arg(short, long)]
+    pub(super) quiet: bool,
+}
+
+pub(super) fn parse_define(s: &str) -> std::result::Result<(String, String), String> {
+    match s.split_once('=') {
+        Some((k, v)) if !k.is_empty() => Ok((k.to_string(), v.to_string())),
+        _ => Err(format!("expected NAME=VALUE, got '{s}'")),
+    }
+}
+
+impl ImageArgs {
+    /// The render settings for `view` of `scene` with `method` (the uniform sampler's
+    /// `spp` and the adaptive sampler's `refine` as given).
+    pub(super) fn settings(
+        &self,
+        scene: &Scene,
+        view: usize,
+        method: Method,
+        sampler: Sampler,
+        spp: Option<u32>,
+        refine: Refine,
+    ) -> Result<Settings> {
+        let sensor = scene.sensor(view)?;
+        Ok(Settings {
+            method,
+            view,
+            width: self.width.unwrap_or(sensor.width),
+            height: self.height.unwrap_or(sensor.height),
+            spp: spp.or(sensor.spp).unwrap_or(16).clamp(1, 65536),
+            seed: self.seed,
+            area_samples: self.area_samples,
+            max_depth: self.max_depth,
+            filter: self.filter,
+            sampler,
+            refine,
+        })
+    }
+}
