@@ -9,7 +9,7 @@ use libfuzzer_sys::fuzz_target;
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
-use radtrace::render::{Filter, Method, Settings};
+use radtrace::render::{Filter, Method, Refine, Sampler, Settings};
 
 fn folder() -> &'static PathBuf {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
@@ -64,8 +64,11 @@ fuzz_target!(|data: &[u8]| {
         area_samples: 2,
         max_depth: 2,
         filter: Filter::Box,
+        sampler: Sampler::Uniform,
+        refine: Refine::default(),
     };
-    if let Ok(out) = radtrace::render::render(&scene, &bvh, &settings, None, None) {
+    let quiet = &radtrace::progress::Silent;
+    if let Ok(out) = radtrace::render::render(&scene, &bvh, &settings, None, quiet) {
         assert!(out.image.pixels.iter().all(|p| p.is_finite()), "non-finite pixel");
     }
 });
