@@ -255,7 +255,7 @@ impl Bvh {
     /// (bit k: triangle 4b + k) of block `b` and returns the new `tmax` (smaller on a
     /// closer hit) or `None` to stop at once.
     #[inline(always)]
-    fn traverse(&self, r: &PreparedRay, leaf: impl FnMut(usize, u32, f32) -> Option<f32>) {
+    fn traverse(&self, r: &PreparedRay, leaf: &mut impl Leaf) {
         // Small stacks are cheap to set up; few trees are deeper than 17 levels.
         if self.depth <= 17 {
             self.traverse_with(r, ArrayStack::<16>::new(), leaf)
@@ -267,12 +267,7 @@ impl Bvh {
     }
 
     #[inline(always)]
-    fn traverse_with(
-        &self,
-        r: &PreparedRay,
-        mut stack: impl GroupStack,
-        mut leaf: impl FnMut(usize, u32, f32) -> Option<f32>,
-    ) {
+    fn traverse_with(&self, r: &PreparedRay, mut stack: impl GroupStack, leaf: &mut impl Leaf) {
         let mut tmax = r.tmax;
         // The root is reached through a group whose only hit bit is slot 7 at base 0.
         let mut group: (u32, u32) = (0, 0x8000_0000);
@@ -291,7 +286,7 @@ impl Bvh {
                     ((prims.1 << sh) & 0xf, 0xf >> sh)
                 };
                 prims.1 &= !done;
-                match leaf(first as usize / 4, lanes, tmax) {
+                match leaf.test(first as usize / 4, lanes, tmax) {
                     Some(t) => tmax = t,
                     None => return,
                 }
@@ -340,11 +335,13 @@ impl Bvh {
     /// The closest hit: (triangle in leaf order, t, barycentrics).
     #[inline(always)]
     fn closest(&self, r: &PreparedRay) -> Option<(usize, f32, Vec2)> {
-        let mut best: Option<(usize, f32, Vec2)> = None;
-        self.traverse(r, |b, lanes, tmax| {
-            self.closest_in_block(r, b, lanes, tmax, &mut best)
-        });
-        best
+        let mut leaf = Closest {
+            bvh: self,
+            r,
+            best: None,
+        };
+        self.traverse(r, &mut leaf);
+        leaf.best
     }
 
     /// The leaf test of [`Bvh::closest`] (a method, so that it is inlined into the
@@ -384,9 +381,13 @@ impl Bvh {
     /// Whether the ray hits anything; stops at the first hit.
     #[inline(always)]
     fn any_hit(&self, r: &PreparedRay) -> bool {
-        let mut hit = false;
-        self.traverse(r, |b, lanes, tmax| self.any_in_block(r, b, lanes, tmax, &mut hit));
-        hit
+        let mut leaf = AnyHit {
+            bvh: self,
+            r,
+            hit: false,
+        };
+        self.traverse(r, &mut leaf);
+        leaf.hit
     }
 
     #[inline(always)]
@@ -417,5 +418,42 @@ impl Accel for Bvh {
         }
         let r = PreparedRay::new(ray);
         self.any_hit(&r)
+    }
+}
+
+/// The test of a leaf's triangles during traversal: `test(b, lanes, tmax)` tests the
+/// triangles `lanes` (bit k: triangle 4b + k) of block `b` and returns the new `tmax`
+/// (smaller on a closer hit) or `None` to stop at once. (A trait with an
+/// always-inlined method rather than a closure, so that the test is inlined into the
+/// traversal loop.)
+trait Leaf {
+    fn test(&mut self, b: usize, lanes: u32, tmax: f32) -> Option<f32>;
+}
+
+/// The leaf test of [`Bvh::closest`].
+struct Closest<'a> {
+    bvh: &'a Bvh,
+    r: &'a PreparedRay,
+    best: Option<(usize, f32, Vec2)>,
+}
+
+impl Leaf for Closest<'_> {
+    #[inline(always)]
+    fn test(&mut self, b: usize, lanes: u32, tmax: f32) -> Option<f32> {
+        self.bvh.closest_in_block(self.r, b, lanes, tmax, &mut self.best)
+    }
+}
+
+/// The leaf test of [`Bvh::any_hit`].
+struct AnyHit<'a> {
+    bvh: &'a Bvh,
+    r: &'a PreparedRay,
+    hit: bool,
+}
+
+impl Leaf for AnyHit<'_> {
+    #[inline(always)]
+    fn test(&mut self, b: usize, lanes: u32, tmax: f32) -> Option<f32> {
+        self.bvh.any_in_block(self.r, b, lanes, tmax, &mut self.hit)
     }
 }
