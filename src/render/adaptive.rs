@@ -28,8 +28,9 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::counters::{Counters, LevelStats};
+use super::film::film_rows;
 use super::sib::{self, Entry, Neighbour, SibQuery, NO_OBJECT};
-use super::{FilmSample, SampleBuffer, Settings, Tracer};
+use super::{FilmSample, Settings, Tracer};
 use crate::camera::Camera;
 use crate::image::{srgb_encode, Image};
 use crate::progress::Progress;
@@ -150,16 +151,23 @@ impl SampleSet {
     /// The image: each pixel a filtered average of the samples near it, every sample
     /// weighted by its share of its pixel.
     pub fn reconstruct(&self, filter: super::Filter) -> Image {
-        let rows: Vec<Vec<FilmSample>> = vec![self
-            .samples
-            .iter()
-            .map(|s| FilmSample {
-                x: s.pos.x,
-                y: s.pos.y,
-                value: s.value,
-            })
-            .collect()];
-        SampleBuffer::from_rows(self.width, self.height, rows).reconstruct(filter)
+        let w = self.width;
+        film_rows(w, self.height, filter, |y, strip| {
+            for p in y * w..(y + 1) * w {
+                let samples = self.pixel(p);
+                let share = 1.0 / samples.len().max(1) as f32;
+                for &i in samples {
+                    let s = &self.samples[i as usize];
+                    let sample = FilmSample {
+                        x: s.pos.x,
+                        y: s.pos.y,
+                        value: s.value,
+                    };
+                    strip.add(&sample, share, self.height);
+                }
+            }
+        })
+        .0
     }
 }
 

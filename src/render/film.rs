@@ -1,12 +1,13 @@
 //! Image samples and their reconstruction into pixels with a filter.
 //!
-//! Samples are kept (position and radiance) and pixels are made afterwards as a
-//! weighted average of the samples near each pixel centre, each sample weighted by the
-//! filter and by its share of its own pixel (1 / the pixel's samples, so that pixels
-//! the adaptive sampler refined do not outweigh their neighbours): the paper's
-//! "weighted average of the samples within the pixel areas" is the `box` filter; the default
-//! `gaussian` is Mitsuba's (standard deviation 0.5 pixel, radius 2 pixels), so that
-//! images compare with Mitsuba's at edges.
+//! Each pixel is a weighted average of the samples near its centre, each sample
+//! weighted by the filter and by its share of its own pixel (1 / the pixel's samples, so
+//! that pixels the adaptive sampler refined do not outweigh their neighbours): the
+//! paper's "weighted average of the samples within the pixel areas" is the `box` filter;
+//! the default `gaussian` is Mitsuba's (standard deviation 0.5 pixel, radius 2 pixels),
+//! so that images compare with Mitsuba's at edges. Samples are splatted into a [`Film`]
+//! of weighted sums as they come ([`film_rows`]), so memory follows the pixels, not the
+//! samples.
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -72,103 +73,9 @@ impl Filter {
     }
 }
 
-/// Samples grouped by the pixel they were taken in.
-#[derive(Debug, Clone, Default)]
-pub struct SampleBuffer {
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-    /// `start[i]..start[i+1]` are pixel i's samples in `samples`.
-    pub start: Vec<u32>,
-    /// All samples.
-    pub samples: Vec<FilmSample>,
-}
-
-impl SampleBuffer {
-    /// Builds a buffer from per-row sample lists, grouping the samples by the pixel
-    /// their film position falls in.
-    pub fn from_rows(width: u32, height: u32, rows: Vec<Vec<FilmSample>>) -> Self {
-        let total: usize = rows.iter().map(Vec::len).sum();
-        let mut samples = Vec::with_capacity(total);
-        for r in rows {
-            samples.extend(r);
-        }
-        let n = (width * height) as usize;
-        let mut start = vec![0u32; n + 1];
-        for s in &samples {
-            start[pixel_index(s, width, height) + 1] += 1;
-        }
-        for i in 0..n {
-            start[i + 1] += start[i];
-        }
-        // Stable placement by pixel (samples arrive row by row, mostly in order).
-        let mut out = vec![
-            FilmSample {
-                x: 0.0,
-                y: 0.0,
-                value: Vec3::ZERO
-            };
-            samples.len()
-        ];
-        let mut fill = start.clone();
-        for s in samples {
-            let p = pixel_index(&s, width, height);
-            out[fill[p] as usize] = s;
-            fill[p] += 1;
-        }
-        SampleBuffer {
-            width,
-            height,
-            start,
-            samples: out,
-        }
-    }
-
-    /// The samples taken in pixel `(x, y)`.
-    pub fn pixel(&self, x: u32, y: u32) -> &[FilmSample] {
-        let i = (y * self.width + x) as usize;
-        &self.samples[self.start[i] as usize..self.start[i + 1] as usize]
-    }
-
-    /// Reconstructs the image with `filter`.
-    pub fn reconstruct(&self, filter: Filter) -> Image {
-        let (w, h) = (self.width, self.height);
-        let reach = filter.radius().ceil() as i64;
-        let mut img = Image::new(w, h);
-        img.pixels
-            .par_chunks_mut(w as usize)
-            .enumerate()
-            .for_each(|(y, row)| {
-                for (x, out) in row.iter_mut().enumerate() {
-                    let (cx, cy) = (x as f32 + 0.5, y as f32 + 0.5);
-                    let mut sum = Vec3::ZERO;
-                    let mut wsum = 0.0;
-                    for ny in (y as i64 - reach).max(0)..=(y as i64 + reach).min(h as i64 - 1) {
-                        for nx in (x as i64 - reach).max(0)..=(x as i64 + reach).min(w as i64 - 1) {
-                            let samples = self.pixel(nx as u32, ny as u32);
-                            let share = 1.0 / samples.len().max(1) as f32;
-                            for s in samples {
-                                let wgt = filter.eval(s.x - cx) * filter.eval(s.y - cy) * share;
-                                if wgt > 0.0 {
-                                    sum += s.value * wgt;
-                                    wsum += wgt;
-                                }
-                            }
-                        }
-                    }
-                    *out = if wsum > 0.0 { sum / wsum } else { Vec3::ZERO };
-                }
-            });
-        img
-    }
-}
-
-/// A film that accumulates filter-weighted sums of samples as they come (the uniform
-/// sampler's), so that memory follows the pixels, not the samples: rows
-/// `first_row..first_row + rows` of a `width`-pixel image. A sample splats onto the
-/// pixels within the filter's reach of its own pixel, with the weights
-/// [`SampleBuffer::reconstruct`] would give it (for `share`, its pixel's samples).
+/// Filter-weighted sums of samples for rows `first_row..first_row + rows` of a
+/// `width`-pixel image: a sample splats onto the pixels within the filter's reach of its
+/// own pixel, weighted by the filter and its `share` of its pixel.
 #[derive(Debug, Clone)]
 pub struct Film {
     width: u32,
@@ -249,15 +156,48 @@ impl Film {
     }
 }
 
-fn pixel_index(s: &FilmSample, width: u32, height: u32) -> usize {
-    let x = (s.x.max(0.0) as u32).min(width - 1);
-    let y = (s.y.max(0.0) as u32).min(height - 1);
-    (y * width + x) as usize
+/// Films an image of `width x height` row by row, in parallel, one row per task (rayon's
+/// larger pieces unbalance the threads when rows cost differently): `row(y, strip)`
+/// adds the samples taken in pixel row `y` to `strip` (the rows its filter reaches) and
+/// returns whatever else the row made. The strips are added in row order, so the image
+/// does not depend on the threads.
+pub fn film_rows<T: Send>(
+    width: u32,
+    height: u32,
+    filter: Filter,
+    row: impl Fn(u32, &mut Film) -> T + Sync,
+) -> (Image, Vec<T>) {
+    let strips: Vec<(Film, T)> = (0..height)
+        .into_par_iter()
+        .with_max_len(1)
+        .map(|y| {
+            let mut strip = Film::for_rows(width, y, y + 1, filter);
+            let made = row(y, &mut strip);
+            (strip, made)
+        })
+        .collect();
+    let mut film = Film::new(width, 0, height, filter);
+    let mut made = Vec::with_capacity(strips.len());
+    for (strip, m) in strips {
+        film.merge(&strip);
+        made.push(m);
+    }
+    (film.image(), made)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Films `samples` (each with its pixel's sample count) on a `w x h` image.
+    fn film(w: u32, h: u32, f: Filter, samples: &[(FilmSample, u32)]) -> Image {
+        film_rows(w, h, f, |y, strip| {
+            for (s, n) in samples.iter().filter(|(s, _)| s.y as u32 == y) {
+                strip.add(s, 1.0 / *n as f32, h);
+            }
+        })
+        .0
+    }
 
     #[test]
     fn gaussian_reaches_zero_at_its_radius_and_peaks_at_the_centre() {
@@ -272,23 +212,22 @@ mod tests {
     #[test]
     fn constant_samples_reconstruct_to_the_constant_with_either_filter() {
         let (w, h) = (7, 5);
-        let rows: Vec<Vec<FilmSample>> = (0..h)
-            .map(|y| {
-                (0..w)
-                    .flat_map(|x| {
-                        [(0.25, 0.25), (0.75, 0.6)].map(|(dx, dy)| FilmSample {
+        let samples: Vec<(FilmSample, u32)> = (0..h)
+            .flat_map(|y| {
+                (0..w).flat_map(move |x| {
+                    [(0.25, 0.25), (0.75, 0.6)].map(|(dx, dy)| {
+                        let s = FilmSample {
                             x: x as f32 + dx,
                             y: y as f32 + dy,
                             value: Vec3::new(0.2, 0.4, 0.8),
-                        })
+                        };
+                        (s, 2)
                     })
-                    .collect()
+                })
             })
             .collect();
-        let buf = SampleBuffer::from_rows(w, h, rows);
-        assert_eq!(buf.pixel(3, 2).len(), 2);
         for f in [Filter::Box, Filter::Gaussian] {
-            let img = buf.reconstruct(f);
+            let img = film(w, h, f, &samples);
             for p in &img.pixels {
                 assert!((*p - Vec3::new(0.2, 0.4, 0.8)).length() < 1e-6);
             }
@@ -297,61 +236,53 @@ mod tests {
 
     #[test]
     fn box_filter_averages_only_the_pixels_own_samples() {
-        let rows = vec![vec![
-            FilmSample {
-                x: 0.2,
+        let at = |x: f32, v: f32, n: u32| {
+            let s = FilmSample {
+                x,
                 y: 0.5,
-                value: Vec3::ONE,
-            },
-            FilmSample {
-                x: 0.4,
-                y: 0.5,
-                value: Vec3::ZERO,
-            },
-            FilmSample {
-                x: 1.5,
-                y: 0.5,
-                value: Vec3::splat(4.0),
-            },
-        ]];
-        let img = SampleBuffer::from_rows(2, 1, rows).reconstruct(Filter::Box);
+                value: Vec3::splat(v),
+            };
+            (s, n)
+        };
+        let img = film(
+            2,
+            1,
+            Filter::Box,
+            &[at(0.2, 1.0, 2), at(0.4, 0.0, 2), at(1.5, 4.0, 1)],
+        );
         assert_eq!(img.pixels, vec![Vec3::splat(0.5), Vec3::splat(4.0)]);
     }
 
-    /// The film's running sums give the image the kept samples give, strip by strip
-    /// as the uniform sampler merges them (varied values, both filters, 3 per pixel).
+    /// A refined pixel does not outweigh its neighbour: pixel 0 has one sample (1) at
+    /// its centre, pixel 1 four samples (0) at its centre; with the Gaussian, pixel 0 is
+    /// g(0) / (g(0) + g(1)) (the four count as one), whatever the threads.
     #[test]
-    fn film_strips_sum_to_the_reconstruction_of_the_kept_samples() {
-        let (w, h, spp) = (9u32, 6u32, 3u32);
-        let sample = |x: u32, y: u32, k: u32| {
-            let t = (x * 7 + y * 13 + k * 5) as f32;
-            FilmSample {
-                x: x as f32 + (0.1 + 0.37 * k as f32).fract(),
-                y: y as f32 + (0.8 - 0.29 * k as f32).rem_euclid(1.0),
-                value: Vec3::new(t.sin().abs(), (0.3 * t).cos().abs(), 0.01 * t),
-            }
+    fn each_pixel_weighs_as_one_sample_and_threads_do_not_matter() {
+        let centre = |x: f32, v: f32, n: u32| {
+            let s = FilmSample {
+                x,
+                y: 0.5,
+                value: Vec3::splat(v),
+            };
+            (s, n)
         };
-        let rows: Vec<Vec<FilmSample>> = (0..h)
-            .map(|y| {
-                (0..w)
-                    .flat_map(|x| (0..spp).map(move |k| sample(x, y, k)))
-                    .collect()
-            })
-            .collect();
-        for f in [Filter::Box, Filter::Gaussian] {
-            let want = SampleBuffer::from_rows(w, h, rows.clone()).reconstruct(f);
-            let mut film = Film::new(w, 0, h, f);
-            for (y, row) in rows.iter().enumerate() {
-                let mut strip = Film::for_rows(w, y as u32, y as u32 + 1, f);
-                for s in row {
-                    strip.add(s, 1.0 / spp as f32, h);
-                }
-                film.merge(&strip);
-            }
-            let got = film.image();
-            for (a, b) in got.pixels.iter().zip(&want.pixels) {
-                assert!((*a - *b).abs().max_element() < 1e-5, "{f:?}: {a} vs {b}");
-            }
-        }
+        let mut samples = vec![centre(0.5, 1.0, 1)];
+        samples.extend((0..4).map(|_| centre(1.5, 0.0, 4)));
+        let f = Filter::Gaussian;
+        let pool = |n| rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap();
+        let one = pool(1).install(|| film(2, 1, f, &samples));
+        let two = pool(2).install(|| film(2, 1, f, &samples));
+        assert_eq!(one, two);
+        let (g0, g1) = (f.eval(0.0), f.eval(1.0));
+        assert!(
+            (one.pixels[0].x - g0 / (g0 + g1)).abs() < 1e-6,
+            "{}",
+            one.pixels[0]
+        );
+        assert!(
+            (one.pixels[1].x - g1 / (g1 + g0)).abs() < 1e-6,
+            "{}",
+            one.pixels[1]
+        );
     }
 }

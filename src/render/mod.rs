@@ -16,7 +16,6 @@ pub mod sib;
 use std::time::Instant;
 
 use glam::Vec2;
-use rayon::prelude::*;
 
 use crate::accel::Accel;
 use crate::camera::Camera;
@@ -30,7 +29,7 @@ pub use counters::{Counters, LevelStats};
 
 pub use crate::selection::Method;
 pub use adaptive::{Refine, SampleSet};
-pub use film::{Film, FilmSample, Filter, SampleBuffer};
+pub use film::{film_rows, Film, FilmSample, Filter};
 pub use shading::Tracer;
 
 /// How the image is sampled.
@@ -165,47 +164,35 @@ fn render_uniform(tracer: &Tracer, camera: &Camera, settings: &Settings, progres
     let (w, h) = (settings.width, settings.height);
     progress.start("render", h as u64);
     let start = Instant::now();
-    // One row per task (see adaptive.rs: rayon's larger pieces unbalance the threads).
-    // Each row's samples go straight into a strip of film (the rows its filter
-    // reaches), and the strips are added in row order: memory follows the pixels,
-    // whatever the samples per pixel, and the image does not depend on the threads.
+    // Each row's samples go straight into the film (memory follows the pixels,
+    // whatever the samples per pixel).
     let share = 1.0 / settings.spp.max(1) as f32;
-    let rows: Vec<(Film, Counters)> = (0..h)
-        .into_par_iter()
-        .with_max_len(1)
-        .map(|y| {
-            let mut counters = Counters::with_sources(tracer.source_count());
-            let mut strip = Film::for_rows(w, y, y + 1, settings.filter);
-            for x in 0..w {
-                let pixel_seed = pixel_seed(settings.seed, settings.view as u64, x, y);
-                for k in 0..settings.spp {
-                    let jitter = Vec2::new(
-                        sobol_burley::sample(k, 0, pixel_seed),
-                        sobol_burley::sample(k, 1, pixel_seed),
-                    );
-                    let (fx, fy) = (x as f32 + jitter.x, y as f32 + jitter.y);
-                    let ray = camera.ray(fx, fy);
-                    counters.primary_rays += 1;
-                    let path_seed = derive(pixel_seed, Stream::Sample(k));
-                    let value = tracer.radiance(&ray, 0, path_seed, &mut counters);
-                    strip.add(&FilmSample { x: fx, y: fy, value }, share, h);
-                }
+    let (image, rows) = film_rows(w, h, settings.filter, |y, strip| {
+        let mut counters = Counters::with_sources(tracer.source_count());
+        for x in 0..w {
+            let pixel_seed = pixel_seed(settings.seed, settings.view as u64, x, y);
+            for k in 0..settings.spp {
+                let jitter = Vec2::new(
+                    sobol_burley::sample(k, 0, pixel_seed),
+                    sobol_burley::sample(k, 1, pixel_seed),
+                );
+                let (fx, fy) = (x as f32 + jitter.x, y as f32 + jitter.y);
+                let ray = camera.ray(fx, fy);
+                counters.primary_rays += 1;
+                let path_seed = derive(pixel_seed, Stream::Sample(k));
+                let value = tracer.radiance(&ray, 0, path_seed, &mut counters);
+                strip.add(&FilmSample { x: fx, y: fy, value }, share, h);
             }
-            progress.advance(1);
-            (strip, counters)
-        })
-        .collect();
+        }
+        progress.advance(1);
+        counters
+    });
     progress.finish();
     let trace_s = start.elapsed().as_secs_f64();
-
-    let start = Instant::now();
     let mut counters = Counters::with_sources(tracer.source_count());
-    let mut film = Film::new(w, 0, h, settings.filter);
-    for (strip, c) in rows {
+    for c in rows {
         counters += c;
-        film.merge(&strip);
     }
-    let image = film.image();
     Output {
         non_finite_pixels: image.non_finite_pixels(),
         image,
@@ -213,7 +200,8 @@ fn render_uniform(tracer: &Tracer, camera: &Camera, settings: &Settings, progres
         levels: Vec::new(),
         samples: None,
         trace_s,
-        reconstruct_s: start.elapsed().as_secs_f64(),
+        // (The film is made as the samples come: no separate reconstruction.)
+        reconstruct_s: 0.0,
     }
 }
 
