@@ -1,0 +1,205 @@
+use super::*;
+use crate::accel::{Accel, Bvh, Ray};
+use crate::testutil::{quad, scene};
+
+fn tri_scene() -> Scene {
+    let v = Vec3::new;
+    let mut tri = quad([v(0., 0., 0.), v(2., 0., 0.), v(0., 2., 0.), v(0., 2., 0.)]);
+    tri.patches = vec![Patch::Polygon(vec![0, 1, 2])];
+    tri.indices = vec![[0, 1, 2]];
+    tri.tri_patch = vec![0];
+    let q = quad([v(0., 0., 1.), v(3., 0., 1.), v(3.5, 1., 1.), v(0., 1., 1.)]);
+    scene(vec![(tri, Vec3::ONE), (q, Vec3::ONE)], vec![], &[])
+}
+
+#[test]
+fn elements_respect_the_mesh_size_and_vertex_areas_sum_to_the_patch_area() {
+    let s = tri_scene();
+    let m = RadiosityMesh::build(&s, 0.25);
+    assert_eq!(m.patches.len(), 2);
+    // Triangle: longest edge 2.83 -> 12 divisions -> 144 elements.
+    assert_eq!(m.patches[0].element_count, 144);
+    assert_eq!(m.patches[0].vertex_count, 13 * 14 / 2);
+    // Quad: 3.5 / 0.25 = 14 by 1.118 / 0.25 -> 5.
+    assert_eq!((m.patches[1].grids[0].n, m.patches[1].grids[0].m), (14, 5));
+    for p in &m.patches {
+        let vs = &m.vertices[p.first_vertex as usize..(p.first_vertex + p.vertex_count) as usize];
+        let sum: f32 = vs.iter().map(|v| v.area).sum();
+        assert!((sum - p.area).abs() < 1e-4 * p.area, "{sum} vs {}", p.area);
+    }
+    assert!((m.patches[0].area - 2.0).abs() < 1e-5);
+    assert!((m.patches[1].area - 3.25).abs() < 1e-4);
+}
+
+/// Element triangles tile the patch: their areas sum to its area, and they face
+/// like its vertices, on both sides of a two-sided patch.
+#[test]
+fn element_triangles_tile_the_patch_and_face_its_normal() {
+    let mut s = tri_scene();
+    s.bsdfs[1].twosided = true;
+    let m = RadiosityMesh::build(&s, 0.3);
+    assert_eq!(m.patches.len(), 3, "quad has a back twin");
+    for (pi, p) in m.patches.iter().enumerate() {
+        let tris = m.element_triangles(pi as u32);
+        assert_eq!(
+            tris.len() as u32,
+            if pi == 0 {
+                p.element_count
+            } else {
+                2 * p.element_count
+            }
+        );
+        let mut area = 0.0;
+        for t in &tris {
+            let [a, b, c] = t.map(|i| m.vertices[i as usize]);
+            assert!(t.iter().all(|&i| m.vertices[i as usize].patch == pi as u32));
+            let n = (b.p - a.p).cross(c.p - a.p);
+            area += 0.5 * n.length();
+            assert!(n.normalize().dot(a.n) > 0.999, "patch {pi}");
+        }
+        assert!((area - p.area).abs() < 1e-4 * p.area, "{area} vs {}", p.area);
+    }
+}
+
+/// The outline of a planar patch is its elements' union: the same area, normal
+/// and solid angle; a curved Bezier piece's outline sees nearly the same solid
+/// angle as its elements.
+#[test]
+fn outline_triangles_stand_for_the_elements() {
+    use crate::geometry::triangle_solid_angle;
+    let sa = |m: &RadiosityMesh, tris: &[[u32; 3]], x: Vec3| -> f32 {
+        tris.iter()
+            .map(|t| triangle_solid_angle(x, &t.map(|i| m.vertices[i as usize].p)))
+            .sum()
+    };
+    let mut s = tri_scene();
+    s.bsdfs[1].twosided = true;
+    let m = RadiosityMesh::build(&s, 0.3);
+    for (pi, p) in m.patches.iter().enumerate() {
+        let outline = m.outline_triangles(pi as u32);
+        assert_eq!(outline.len(), if pi == 0 { 1 } else { 2 });
+        let mut area = 0.0;
+        for t in &outline {
+            let [a, b, c] = t.map(|i| m.vertices[i as usize]);
+            let n = (b.p - a.p).cross(c.p - a.p);
+            area += 0.5 * n.length();
+            assert!(n.normalize().dot(a.n) > 0.999, "patch {pi}");
+        }
+        assert!((area - p.area).abs() < 1e-4 * p.area, "{area} vs {}", p.area);
+        let x = m.vertices[p.first_vertex as usize].p
+            + m.vertices[p.first_vertex as usize].n * 0.7
+            + Vec3::splat(0.2);
+        let (o, e) = (sa(&m, &outline, x), sa(&m, &m.element_triangles(pi as u32), x));
+        assert!((o - e).abs() < 1e-4 * e.max(1e-3), "patch {pi}: {o} vs {e}");
+    }
+    let patches = crate::geometry::bezier::read_bpt(&crate::testutil::teapot_bpt()).unwrap();
+    let teapot = crate::geometry::bezier::tessellate(&patches, 4, 8);
+    let s = crate::testutil::scene(vec![(teapot, Vec3::splat(0.5))], vec![], &[]);
+    let m = RadiosityMesh::build(&s, 0.05);
+    let x = Vec3::new(0.0, 6.0, 4.0);
+    let (mut checked, mut rel_sum) = (0, 0.0);
+    for pi in 0..m.patches.len() as u32 {
+        let outline = m.outline_triangles(pi);
+        assert!(outline.len() <= 8);
+        let e = sa(&m, &m.element_triangles(pi), x);
+        if e > 1e-3 {
+            let rel = (sa(&m, &outline, x) - e).abs() / e;
+            assert!(rel < 0.1, "patch {pi}: {rel}");
+            rel_sum += rel;
+            checked += 1;
+        }
+    }
+    assert!(checked > 20, "{checked}");
+    assert!(
+        rel_sum / (checked as f32) < 0.02,
+        "mean {}",
+        rel_sum / checked as f32
+    );
+}
+
+/// Gouraud interpolation of a linear function of position is exact, at any hit.
+#[test]
+fn locate_interpolates_linear_functions_exactly() {
+    let s = tri_scene();
+    let m = RadiosityMesh::build(&s, 0.3);
+    let f = |p: Vec3| Vec3::new(1.0 + 2.0 * p.x - p.y, 0.5 * p.x + 3.0 * p.y, 2.0);
+    let values: Vec<Rgb> = m.vertices.iter().map(|v| f(v.p)).collect();
+    let bvh = Bvh::build(&s);
+    let mut hits = 0;
+    for (k, (x, y)) in [
+        (0.3f32, 0.2f32),
+        (1.2, 0.7),
+        (0.05, 1.9),
+        (2.9, 0.5),
+        (3.3, 0.9),
+        (1.7, 0.1),
+    ]
+    .iter()
+    .enumerate()
+    {
+        for z in [0.5f32, 2.0] {
+            let ray = Ray::new(Vec3::new(*x, *y, z), -Vec3::Z);
+            let Some(hit) = bvh.intersect(&ray) else { continue };
+            let p = ray.at(hit.t);
+            let got = m.locate(&s, &hit, p, true).apply(&values);
+            assert!(
+                (got - f(p)).abs().max_element() < 1e-3,
+                "case {k}: {got} vs {}",
+                f(p)
+            );
+            hits += 1;
+        }
+    }
+    assert_eq!(hits, 10, "rays that hit the triangle or the quad");
+}
+
+#[test]
+fn shoot_cells_tile_the_patch() {
+    let s = tri_scene();
+    let m = RadiosityMesh::build(&s, 0.3);
+    for p in 0..2 {
+        let cells = m.shoot_cells(p, 16, |_| Vec2::splat(0.5));
+        let area: f32 = cells
+            .iter()
+            .map(|c| {
+                let q = c.polygon();
+                (1..q.len() - 1)
+                    .map(|k| 0.5 * (q[k] - q[0]).cross(q[k + 1] - q[0]).length())
+                    .sum::<f32>()
+            })
+            .sum();
+        assert!(
+            (area - m.patches[p as usize].area).abs() < 1e-3,
+            "patch {p}: {area}"
+        );
+        assert!(cells.len() >= 9 && cells.len() <= 16, "{}", cells.len());
+    }
+}
+
+#[test]
+fn twosided_patches_get_a_back_twin_with_its_own_vertices() {
+    let mut s = tri_scene();
+    s.bsdfs[1].twosided = true;
+    let m = RadiosityMesh::build(&s, 0.5);
+    assert_eq!(m.front_patches, 2);
+    assert_eq!(m.patches.len(), 3);
+    let twin = &m.patches[m.patches[1].twin.unwrap() as usize];
+    let front = &m.patches[1];
+    assert_eq!(twin.vertex_count, front.vertex_count);
+    let (a, b) = (
+        &m.vertices[front.first_vertex as usize],
+        &m.vertices[twin.first_vertex as usize],
+    );
+    assert_eq!(a.p, b.p);
+    assert_eq!(a.n, -b.n);
+}
+
+#[test]
+fn count_vertices_agrees_with_build() {
+    let mut s = tri_scene();
+    s.bsdfs[1].twosided = true;
+    for size in [0.07f32, 0.3, 2.0] {
+        let m = RadiosityMesh::build(&s, size);
+        assert_eq!(RadiosityMesh::count_vertices(&s, size), m.vertices.len() as u64);
+    }
+}
