@@ -65,12 +65,21 @@ pub struct SolveArgs {
     /// Sample cells per area light or shooting patch in each shot.
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub(super) shoot_samples: u32,
-    /// Stop when the unshot power falls below this fraction of the emitted power.
+    /// Deterministic shots stop when the unshot power falls below this fraction of
+    /// the emitted power, or (with photons) when no patch holds this fraction.
     #[arg(long, default_value_t = 0.01, value_name = "FRACTION")]
     pub(super) solve_tolerance: f32,
-    /// Stop after this many patch shots at most.
+    /// Deterministic patch shots at most.
     #[arg(long, default_value_t = 20000)]
     pub(super) max_shots: u32,
+    /// Photons per mesh vertex that carry the light the deterministic shots leave
+    /// unshot (0: none; the rest stays unshot).
+    #[arg(long, default_value_t = 64, value_name = "N")]
+    pub(super) photons: u32,
+    /// Time budget of the solve in seconds: deterministic shots stop at half of it,
+    /// photons at all of it (the residual reached is reported) [default: none].
+    #[arg(long, value_name = "SECONDS")]
+    pub(super) solve_time: Option<f32>,
 }
 
 impl SolveArgs {
@@ -87,6 +96,8 @@ impl SolveArgs {
             tolerance: self.solve_tolerance,
             max_shots: self.max_shots,
             seed,
+            photons: self.photons,
+            time_limit: self.solve_time.unwrap_or(0.0),
         };
         settings.validate()?;
         Ok(settings)

@@ -12,7 +12,10 @@ use glam::{Vec2, Vec3};
 
 use crate::accel::Hit;
 use crate::geometry::{BezierPatch, Patch};
-use crate::scene::{Rgb, Scene};
+use crate::scene::{Light, Rgb, Scene};
+
+mod lattice;
+pub use lattice::Lattice;
 
 /// The parameter domain of one grid.
 #[derive(Debug, Clone, PartialEq)]
@@ -31,6 +34,9 @@ pub enum Domain {
         /// Parameter range in v.
         v: [f32; 2],
     },
+    /// A cluster of polygons meshed by a square lattice (see [`Lattice`]); its
+    /// vertices are found by position, not by parameters.
+    Lattice(Box<Lattice>),
 }
 
 /// A regular grid of elements over a domain.
@@ -105,6 +111,9 @@ pub struct RadiosityMesh {
     pub vertices: Vec<MeshVertex>,
     /// For each shape, the index of its first patch in `patches`.
     pub shape_first_patch: Vec<u32>,
+    /// For each shape, for each of its scene patches, its radiosity patch (counted
+    /// from the shape's first): several scene patches share one when they merge.
+    pub patch_map: Vec<Vec<u32>>,
     /// Number of front patches: `patches[..front_patches]` follow the scene's shapes
     /// and patches in order; the back twins of two-sided patches come after them.
     pub front_patches: u32,
@@ -175,6 +184,24 @@ fn patch_domains(mesh: &crate::geometry::TriMesh, patch: &Patch) -> Vec<Domain> 
     }
 }
 
+/// The triangles of the scene patches `members` of `mesh` (polygons as fans).
+fn cluster_triangles(mesh: &crate::geometry::TriMesh, members: &[u32]) -> Vec<[Vec3; 3]> {
+    let mut out = Vec::new();
+    for &m in members {
+        for d in patch_domains(mesh, &mesh.patches[m as usize]) {
+            match d {
+                Domain::Tri(t) => out.push(t),
+                Domain::Quad([a, b, c, e]) => {
+                    out.push([a, b, c]);
+                    out.push([a, c, e]);
+                }
+                _ => {}
+            }
+        }
+    }
+    out
+}
+
 /// Subdivisions for a length: at least 1, at most 256.
 fn divisions(len: f32, size: f32) -> u32 {
     if !(len > 0.0) || !(size > 0.0) {
@@ -185,15 +212,17 @@ fn divisions(len: f32, size: f32) -> u32 {
 
 impl Grid {
     fn vertex_count(&self) -> u32 {
-        match self.domain {
+        match &self.domain {
             Domain::Tri(_) => (self.n + 1) * (self.n + 2) / 2,
+            Domain::Lattice(l) => l.nodes.len() as u32,
             _ => (self.n + 1) * (self.m + 1),
         }
     }
 
     fn element_count(&self) -> u32 {
-        match self.domain {
+        match &self.domain {
             Domain::Tri(_) => self.n * self.n,
+            Domain::Lattice(l) => l.cells.len() as u32,
             _ => self.n * self.m,
         }
     }
@@ -221,6 +250,8 @@ impl Grid {
                 let n = surface.normal(uu, vv);
                 (p, if surface.flipped { -n } else { n })
             }
+            // A lattice has no parameterisation; its vertices are placed by position.
+            Domain::Lattice(_) => (Vec3::ZERO, Vec3::Z),
         }
     }
 
@@ -237,6 +268,7 @@ impl Grid {
                 let (_, du, dv) = surface.eval(u[0] + (u[1] - u[0]) * s, v[0] + (v[1] - v[0]) * t);
                 du.cross(dv).length() * (u[1] - u[0]) * (v[1] - v[0])
             }
+            Domain::Lattice(_) => 0.0,
         }
     }
 
@@ -369,46 +401,84 @@ fn barycentric(tri: [Vec3; 3], p: Vec3) -> Vec2 {
 }
 
 impl RadiosityMesh {
-    /// Meshes every patch of `scene` with elements no larger than `mesh_size`.
+    /// Meshes every patch of `scene` with elements no larger than `mesh_size`,
+    /// after merging its polygons into clusters (see [`lattice`]). A surface with no
+    /// diffuse reflectance that emits nothing keeps no radiosity: it gets the fewest
+    /// vertices that still locate a hit (one element per patch).
     pub fn build(scene: &Scene, mesh_size: f32) -> Self {
         let mut mesh = RadiosityMesh {
             mesh_size,
             patches: Vec::new(),
             vertices: Vec::new(),
             shape_first_patch: Vec::with_capacity(scene.shapes.len()),
+            patch_map: Vec::with_capacity(scene.shapes.len()),
             front_patches: 0,
         };
+        let emitting: std::collections::HashSet<u32> = scene
+            .lights
+            .iter()
+            .filter_map(|l| match l {
+                Light::Area { shape, .. } => Some(*shape),
+                _ => None,
+            })
+            .collect();
         for (si, shape) in scene.shapes.iter().enumerate() {
-            mesh.shape_first_patch.push(mesh.patches.len() as u32);
+            let first_patch = mesh.patches.len() as u32;
+            mesh.shape_first_patch.push(first_patch);
             let bsdf = &scene.bsdfs[shape.bsdf as usize];
             let reflectance = bsdf.kind.diffuse_albedo();
-            for (pi, patch) in shape.mesh.patches.iter().enumerate() {
-                let domains = patch_domains(&shape.mesh, patch);
-                let first_vertex = mesh.vertices.len() as u32;
+            let inert = !(reflectance.max_element() > 0.0) && !emitting.contains(&(si as u32));
+            let size = if inert { f32::INFINITY } else { mesh_size };
+            let groups = lattice::clusters(&shape.mesh, mesh_size, inert);
+            mesh.patch_map.push(groups.of_patch.clone());
+            for members in &groups.members {
                 let patch_index = mesh.patches.len() as u32;
-                let mut grids = Vec::with_capacity(domains.len());
+                let first_vertex = mesh.vertices.len() as u32;
+                let mut grids = Vec::new();
                 let mut area = 0.0;
                 let mut elements = 0;
-                for domain in domains {
-                    let (n, m) = grid_size(&domain, mesh_size);
-                    let mut grid = Grid {
-                        domain,
-                        n,
-                        m,
-                        first_vertex: mesh.vertices.len() as u32,
+                if members.len() == 1 {
+                    for domain in patch_domains(&shape.mesh, &shape.mesh.patches[members[0] as usize]) {
+                        let (n, m) = grid_size(&domain, size);
+                        let mut grid = Grid {
+                            domain,
+                            n,
+                            m,
+                            first_vertex: mesh.vertices.len() as u32,
+                            flip: false,
+                            area: 0.0,
+                        };
+                        let (verts, a) = grid_vertices(&grid, patch_index);
+                        grid.area = a;
+                        area += a;
+                        elements += grid.element_count();
+                        mesh.vertices.extend(verts);
+                        grids.push(grid);
+                    }
+                } else {
+                    let surface = cluster_triangles(&shape.mesh, members);
+                    let (lat, verts, a) = lattice::build(surface, size);
+                    area = a;
+                    elements = lat.cells.len() as u32;
+                    mesh.vertices.extend(verts.into_iter().map(|v| MeshVertex {
+                        p: v.p,
+                        n: v.n,
+                        q: v.q,
+                        area: v.area,
+                        patch: patch_index,
+                    }));
+                    grids.push(Grid {
+                        n: lat.n,
+                        m: lat.m,
+                        domain: Domain::Lattice(Box::new(lat)),
+                        first_vertex,
                         flip: false,
-                        area: 0.0,
-                    };
-                    let (verts, a) = grid_vertices(&grid, patch_index);
-                    grid.area = a;
-                    area += a;
-                    elements += grid.element_count();
-                    mesh.vertices.extend(verts);
-                    grids.push(grid);
+                        area: a,
+                    });
                 }
                 mesh.patches.push(MeshPatch {
                     shape: si as u32,
-                    local: pi as u32,
+                    local: members[0],
                     grids,
                     first_vertex,
                     vertex_count: mesh.vertices.len() as u32 - first_vertex,
@@ -428,12 +498,32 @@ impl RadiosityMesh {
             }
             let twin_index = mesh.patches.len() as u32;
             let mut twin = mesh.patches[p].clone();
+            let front_first = twin.first_vertex as usize;
             twin.first_vertex = mesh.vertices.len() as u32;
             for g in &mut twin.grids {
+                let offset = g.first_vertex as usize - front_first;
                 g.first_vertex = mesh.vertices.len() as u32;
                 g.flip = true;
-                let (verts, _) = grid_vertices(g, twin_index);
-                mesh.vertices.extend(verts);
+                if let Domain::Lattice(l) = &mut g.domain {
+                    for t in &mut l.surface {
+                        t.swap(1, 2);
+                    }
+                    let count = l.nodes.len();
+                    let verts: Vec<MeshVertex> = (0..count)
+                        .map(|k| {
+                            let v = mesh.vertices[front_first + offset + k];
+                            MeshVertex {
+                                n: -v.n,
+                                patch: twin_index,
+                                ..v
+                            }
+                        })
+                        .collect();
+                    mesh.vertices.extend(verts);
+                } else {
+                    let (verts, _) = grid_vertices(g, twin_index);
+                    mesh.vertices.extend(verts);
+                }
             }
             mesh.patches[p].twin = Some(twin_index);
             mesh.patches.push(twin);
@@ -441,31 +531,21 @@ impl RadiosityMesh {
         mesh
     }
 
-    /// The number of vertices [`RadiosityMesh::build`] would make, without making
-    /// them (cheap: used to refuse a solution file before building its mesh).
-    pub fn count_vertices(scene: &Scene, mesh_size: f32) -> u64 {
-        let mut total = 0u64;
+    /// A cheap upper estimate of the vertices [`RadiosityMesh::build`] makes (to refuse
+    /// a forged tiny mesh size before building): four per polygon, plus the surface
+    /// area over the element area, on both sides.
+    pub fn estimate_vertices(scene: &Scene, mesh_size: f32) -> f64 {
+        let mut total = 0.0f64;
         for shape in &scene.shapes {
-            let sides = if scene.bsdfs[shape.bsdf as usize].twosided {
-                2
-            } else {
-                1
-            };
-            for patch in &shape.mesh.patches {
-                let domains = patch_domains(&shape.mesh, patch);
-                for d in domains {
-                    let (n, m) = grid_size(&d, mesh_size);
-                    let g = Grid {
-                        domain: d,
-                        n,
-                        m,
-                        first_vertex: 0,
-                        flip: false,
-                        area: 0.0,
-                    };
-                    total += sides * u64::from(g.vertex_count());
-                }
-            }
+            let m = &shape.mesh;
+            let area: f64 = (0..m.triangle_count())
+                .map(|t| {
+                    let [a, b, c] = m.triangle(t);
+                    0.5 * f64::from((b - a).cross(c - a).length())
+                })
+                .sum();
+            let s = f64::from(mesh_size);
+            total += 2.0 * (4.0 * m.patches.len() as f64 + 4.0 * area / (s * s));
         }
         total
     }
@@ -477,7 +557,8 @@ impl RadiosityMesh {
 
     /// The patch that triangle `tri` of shape `shape` belongs to.
     pub fn patch_of(&self, scene: &Scene, shape: u32, tri: u32) -> u32 {
-        self.shape_first_patch[shape as usize] + scene.shapes[shape as usize].mesh.tri_patch[tri as usize]
+        let scene_patch = scene.shapes[shape as usize].mesh.tri_patch[tri as usize];
+        self.shape_first_patch[shape as usize] + self.patch_map[shape as usize][scene_patch as usize]
     }
 
     /// The patch a ray hit: the front patch of the hit triangle, or its back twin
@@ -516,6 +597,7 @@ impl RadiosityMesh {
             }
         };
         let st = match &grid.domain {
+            Domain::Lattice(l) => return l.interp(grid.first_vertex, p),
             Domain::Tri(t) => barycentric(*t, p),
             Domain::Quad(q) => inverse_bilinear(*q, p),
             Domain::Bezier { u, v, .. } => {
@@ -548,7 +630,14 @@ impl RadiosityMesh {
         let mut out = Vec::with_capacity(if outline { 8 } else { 2 * p.element_count as usize });
         for g in &p.grids {
             let base = g.first_vertex;
-            match g.domain {
+            match &g.domain {
+                Domain::Lattice(l) => {
+                    for &c in &l.cells {
+                        let [a, b, cc, d] = l.cell_vertices(c).map(|v| base + v);
+                        out.push([a, b, cc]);
+                        out.push([a, cc, d]);
+                    }
+                }
                 Domain::Tri(_) => {
                     let k = g.n;
                     let idx = |i: u32, j: u32| base + tri_vertex(k, i, j);
@@ -615,6 +704,12 @@ impl RadiosityMesh {
             return out;
         }
         for (g, grid) in p.grids.iter().enumerate() {
+            if let Domain::Lattice(l) = &grid.domain {
+                // The surface of a back twin is wound for the back already.
+                let base = grid.first_vertex;
+                out.extend(surface_cells(&l.surface, count, &u, |q| l.interp(base, q)));
+                continue;
+            }
             let k = (count as f32 * grid.area / total).max(1.0);
             let side = (k.sqrt().round() as u32).max(1);
             let base = g as u32 * 65_537;
@@ -646,6 +741,7 @@ impl RadiosityMesh {
                     p: pos,
                     n,
                     interp: grid.interp(s, t),
+                    weight: 1.0,
                 });
             };
             match grid.domain {
@@ -696,6 +792,72 @@ pub struct ShootCell {
     pub n: Vec3,
     /// Vertex weights at the point.
     pub interp: Interp,
+    /// What the cell's light counts for: 1, or (area of the surface) / (area of the
+    /// cells drawn) when the cells are a sample of a surface of more pieces than cells.
+    pub weight: f32,
+}
+
+/// About `count` shooting cells over the triangles `tris` (the exact surface, wound to
+/// face its front), each with a point jittered by `u` and the weights `interp` gives
+/// there. With fewer triangles than `count`, each is cut into a triangular grid in
+/// proportion to its area; with more, `count` of them are drawn in proportion to area
+/// (stratified along their cumulative area), each standing for its share.
+pub fn surface_cells<'a>(
+    tris: &'a [[Vec3; 3]],
+    count: u32,
+    u: &'a impl Fn(u32) -> Vec2,
+    interp: impl Fn(Vec3) -> Interp + 'a,
+) -> impl Iterator<Item = ShootCell> + 'a {
+    let areas: Vec<f32> = tris
+        .iter()
+        .map(|t| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length())
+        .collect();
+    let total: f32 = areas.iter().sum();
+    let count = count.max(1);
+    let mut pieces: Vec<([Vec3; 3], f32)> = Vec::new();
+    if total > 0.0 && tris.len() as u32 <= count {
+        for (t, a) in tris.iter().zip(&areas) {
+            let k = ((count as f32 * a / total).sqrt().round() as u32).max(1);
+            let at = |i: u32, j: u32| {
+                t[0] + (t[1] - t[0]) * (i as f32 / k as f32) + (t[2] - t[0]) * (j as f32 / k as f32)
+            };
+            for j in 0..k {
+                for i in 0..k - j {
+                    pieces.push(([at(i, j), at(i + 1, j), at(i, j + 1)], 1.0));
+                    if i + j + 1 < k {
+                        pieces.push(([at(i + 1, j + 1), at(i, j + 1), at(i + 1, j)], 1.0));
+                    }
+                }
+            }
+        }
+    } else if total > 0.0 {
+        let mut cdf = Vec::with_capacity(tris.len());
+        let mut acc = 0.0f64;
+        for a in &areas {
+            acc += f64::from(*a);
+            cdf.push(acc);
+        }
+        for c in 0..count {
+            let x = (f64::from(c) + f64::from(u(c ^ 0x5bd1_e995).x)) / f64::from(count) * acc;
+            let i = cdf.partition_point(|&v| v < x).min(tris.len() - 1);
+            pieces.push((tris[i], total / (count as f32 * areas[i].max(1e-30))));
+        }
+    }
+    pieces.into_iter().enumerate().map(move |(k, (t, weight))| {
+        let r = u(k as u32);
+        let q = r.x.sqrt();
+        let p = t[0] + (t[1] - t[0]) * (q * (1.0 - r.y)) + (t[2] - t[0]) * (q * r.y);
+        let mut corners = [Vec3::ZERO; 4];
+        corners[..3].copy_from_slice(&t);
+        ShootCell {
+            corners,
+            len: 3,
+            p,
+            n: (t[1] - t[0]).cross(t[2] - t[0]).normalize_or(Vec3::Z),
+            interp: interp(p),
+            weight,
+        }
+    })
 }
 
 impl ShootCell {
@@ -707,6 +869,7 @@ impl ShootCell {
 
 fn grid_size(domain: &Domain, size: f32) -> (u32, u32) {
     match domain {
+        Domain::Lattice(l) => (l.n, l.m),
         Domain::Tri([a, b, c]) => {
             let k = divisions(
                 (*b - *a).length().max((*c - *a).length()).max((*c - *b).length()),

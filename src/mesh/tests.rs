@@ -194,12 +194,112 @@ fn twosided_patches_get_a_back_twin_with_its_own_vertices() {
     assert_eq!(a.n, -b.n);
 }
 
-#[test]
-fn count_vertices_agrees_with_build() {
-    let mut s = tri_scene();
-    s.bsdfs[1].twosided = true;
-    for size in [0.07f32, 0.3, 2.0] {
-        let m = RadiosityMesh::build(&s, size);
-        assert_eq!(RadiosityMesh::count_vertices(&s, size), m.vertices.len() as u64);
+/// A square `[0, s]^2` at height `z` facing +z, cut into `k x k` cells of two
+/// triangles each, every triangle its own scene patch.
+fn split_square(s: f32, z: f32, k: u32) -> crate::geometry::TriMesh {
+    let mut m = crate::geometry::TriMesh::default();
+    for j in 0..=k {
+        for i in 0..=k {
+            m.positions
+                .push(Vec3::new(s * i as f32 / k as f32, s * j as f32 / k as f32, z));
+        }
     }
+    let at = |i: u32, j: u32| j * (k + 1) + i;
+    for j in 0..k {
+        for i in 0..k {
+            for t in [
+                [at(i, j), at(i + 1, j), at(i + 1, j + 1)],
+                [at(i, j), at(i + 1, j + 1), at(i, j + 1)],
+            ] {
+                m.tri_patch.push(m.patches.len() as u32);
+                m.patches.push(Patch::Polygon(t.to_vec()));
+                m.indices.push(t);
+            }
+        }
+    }
+    m
+}
+
+#[test]
+fn a_plane_of_ten_thousand_triangles_is_one_patch_with_vertices_by_area() {
+    // 2 x 2 m in 71 x 71 cells: 10,082 triangles; mesh size 0.25 -> 8 x 8 elements.
+    let s = scene(vec![(split_square(2.0, 0.0, 71), Vec3::splat(0.5))], vec![], &[]);
+    assert!(s.shapes[0].mesh.indices.len() >= 10_000);
+    let m = RadiosityMesh::build(&s, 0.25);
+    assert_eq!(m.patches.len(), 1);
+    assert_eq!(m.patches[0].element_count, 64);
+    assert_eq!(m.vertices.len(), 81);
+    let sum: f32 = m.vertices.iter().map(|v| v.area).sum();
+    assert!((sum - 4.0).abs() < 1e-3, "{sum}");
+    assert!((m.patches[0].area - 4.0).abs() < 1e-3);
+    // Every vertex lies on the surface, and a hit anywhere is located on it with
+    // weights that reproduce a linear function.
+    for v in &m.vertices {
+        assert!(
+            v.p.z.abs() < 1e-6 && v.p.x >= -1e-5 && v.p.x <= 2.0 + 1e-5,
+            "{:?}",
+            v.p
+        );
+    }
+    let f: Vec<Rgb> = m
+        .vertices
+        .iter()
+        .map(|v| Vec3::splat(1.0 + v.p.x + 2.0 * v.p.y))
+        .collect();
+    for (x, y) in [(0.3, 0.7), (1.9, 0.1), (1.0, 1.0), (0.01, 1.99)] {
+        let lat = match &m.patches[0].grids[0].domain {
+            Domain::Lattice(l) => l,
+            d => panic!("{d:?}"),
+        };
+        let w = lat.interp(0, Vec3::new(x, y, 0.0));
+        let got = w.apply(&f).x;
+        assert!((got - (1.0 + x + 2.0 * y)).abs() < 1e-3, "({x}, {y}): {got}");
+    }
+}
+
+#[test]
+fn a_cube_of_twelve_triangles_is_six_patches() {
+    let faces = crate::testutil::box_inside(Vec3::ZERO, Vec3::splat(3.0));
+    // One mesh of 12 triangles, each its own scene patch.
+    let mut m = crate::geometry::TriMesh::default();
+    for f in &faces {
+        let base = m.positions.len() as u32;
+        m.positions.extend(&f.positions);
+        for t in &f.indices {
+            m.tri_patch.push(m.patches.len() as u32);
+            let t = t.map(|i| base + i);
+            m.patches.push(Patch::Polygon(t.to_vec()));
+            m.indices.push(t);
+        }
+    }
+    let s = scene(vec![(m, Vec3::splat(0.5))], vec![], &[]);
+    let mesh = RadiosityMesh::build(&s, 1.0);
+    assert_eq!(mesh.patches.len(), 6);
+    for p in &mesh.patches {
+        assert!((p.area - 9.0).abs() < 1e-3, "{}", p.area);
+        assert_eq!(p.element_count, 9);
+    }
+}
+
+#[test]
+fn coplanar_faces_of_different_materials_stay_apart() {
+    let v = Vec3::new;
+    let a = quad([v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.), v(0., 1., 0.)]);
+    let b = quad([v(1., 0., 0.), v(2., 0., 0.), v(2., 1., 0.), v(1., 1., 0.)]);
+    let s = scene(vec![(a, Vec3::splat(0.5)), (b, Vec3::splat(0.8))], vec![], &[]);
+    let m = RadiosityMesh::build(&s, 0.1);
+    assert_eq!(m.patches.len(), 2);
+    assert_ne!(m.patches[0].reflectance, m.patches[1].reflectance);
+}
+
+#[test]
+fn a_mirror_keeps_no_radiosity() {
+    let v = Vec3::new;
+    let mirror = crate::scene::BsdfKind::Conductor {
+        specular_reflectance: Vec3::ONE,
+    };
+    let floor = quad([v(0., 0., 0.), v(4., 0., 0.), v(4., 4., 0.), v(0., 4., 0.)]);
+    let s = crate::testutil::scene_with(vec![(floor, mirror)], vec![], &[]);
+    let m = RadiosityMesh::build(&s, 0.1);
+    assert_eq!(m.vertices.len(), 4, "one element, whatever the mesh size");
 }

@@ -13,6 +13,8 @@ pub(crate) fn solve_settings(mesh_size: f32, n: u32) -> SolveSettings {
         tolerance: 0.01,
         max_shots: 40,
         seed: 1,
+        photons: 0,
+        time_limit: 0.0,
     }
 }
 

@@ -28,6 +28,8 @@ use crate::progress::Progress;
 use crate::scene::{Light, Rgb, Scene};
 use crate::{Error, Result};
 
+mod photons;
+
 /// What shot light: a light source of the scene or a radiant patch of the mesh.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
 pub enum SourceId {
@@ -52,6 +54,14 @@ pub struct SolveSettings {
     pub max_shots: u32,
     /// Seed for the sample points.
     pub seed: u64,
+    /// Photons per mesh vertex that carry what the deterministic shots leave unshot
+    /// (0: it stays unshot).
+    #[serde(default)]
+    pub photons: u32,
+    /// Wall-clock budget in seconds (0: none): the deterministic shots stop at half of
+    /// it, the photons at all of it (those traced then stand for all).
+    #[serde(default)]
+    pub time_limit: f32,
 }
 
 impl SolveSettings {
@@ -73,6 +83,18 @@ impl SolveSettings {
             return Err(Error::Usage(format!(
                 "--sources-per-patch {}: must be at most 64",
                 self.sources_per_patch
+            )));
+        }
+        if !(self.time_limit.is_finite() && self.time_limit >= 0.0) {
+            return Err(Error::Usage(format!(
+                "--solve-time {}: must be a number of seconds, 0 or more",
+                self.time_limit
+            )));
+        }
+        if self.photons > 1_000_000 {
+            return Err(Error::Usage(format!(
+                "--photons {}: must be at most 1000000 per vertex",
+                self.photons
             )));
         }
         if self.shoot_samples < 1 {
@@ -98,6 +120,38 @@ pub struct ListEntry {
     pub power: f32,
 }
 
+/// The cells of one shot at several resolutions, and the source's bounds: a vertex
+/// takes the coarsest set with as many cells as the solid angle it sees the source
+/// under asks for (its rays follow the source's solid angle and distance).
+struct Levels {
+    sets: Vec<Vec<ShootPoint>>,
+    centre: Vec3,
+    radius: f32,
+    area: f32,
+}
+
+/// Cells a source filling the whole hemisphere gets, per cell of `--shoot-samples`
+/// ... : a source seen under solid angle w gets `w / 2pi * 4 * shoot_samples` cells.
+const HEMISPHERE_FACTOR: f32 = 1.0;
+
+impl Levels {
+    fn for_vertex(&self, x: Vec3, max: u32) -> &[ShootPoint] {
+        let d = (x - self.centre).length() - self.radius;
+        let want = if d > 0.0 {
+            let omega = (self.area / (d * d)).min(2.0 * std::f32::consts::PI);
+            omega / (2.0 * std::f32::consts::PI) * HEMISPHERE_FACTOR * max as f32
+        } else {
+            f32::INFINITY
+        };
+        self.sets
+            .iter()
+            .find(|s| s.len() as f32 >= want)
+            .or(self.sets.last())
+            .map(Vec::as_slice)
+            .unwrap_or(&[])
+    }
+}
+
 /// Figures of a solve.
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct SolveStats {
@@ -119,6 +173,15 @@ pub struct SolveStats {
     pub residual: f64,
     /// Wall seconds.
     pub time_s: f64,
+    /// Photons traced in the stochastic part.
+    #[serde(default)]
+    pub photons: u64,
+    /// Rays the photons cast.
+    #[serde(default)]
+    pub photon_rays: u64,
+    /// Whether the time budget cut the solve short.
+    #[serde(default)]
+    pub timed_out: bool,
 }
 
 /// The view-independent result of pass 1.
@@ -174,7 +237,7 @@ impl ShootPoint {
             n: c.n,
             poly: c.corners,
             len: c.len,
-            radiosity,
+            radiosity: radiosity * c.weight,
         }
     }
 
@@ -271,16 +334,27 @@ pub fn solve(
     settings: &SolveSettings,
     progress: &dyn Progress,
 ) -> Result<Solution> {
-    Ok(solve_traced(scene, accel, settings, progress)?.0)
+    Ok(solve_inner(scene, accel, settings, progress, false)?.0)
 }
 
 /// [`solve`], also returning for each patch the sources whose light went into its
 /// general radiosity (for checking that no source reaches a patch by two routes).
+#[cfg(test)]
 pub(crate) fn solve_traced(
     scene: &Scene,
     accel: &dyn Accel,
     settings: &SolveSettings,
     progress: &dyn Progress,
+) -> Result<(Solution, Vec<BTreeSet<SourceId>>)> {
+    solve_inner(scene, accel, settings, progress, true)
+}
+
+fn solve_inner(
+    scene: &Scene,
+    accel: &dyn Accel,
+    settings: &SolveSettings,
+    progress: &dyn Progress,
+    trace: bool,
 ) -> Result<(Solution, Vec<BTreeSet<SourceId>>)> {
     settings.validate()?;
     let start = Instant::now();
@@ -311,10 +385,16 @@ pub(crate) fn solve_traced(
     let mut order: Vec<usize> = (0..scene.lights.len()).collect();
     order.sort_by(|&a, &b| power[b].total_cmp(&power[a]));
     for l in order {
-        let points = s.light_points(l as u32);
-        s.shoot(SourceId::Light(l as u32), &points);
+        let levels = s.levels(|s, k| s.light_points(l as u32, k));
+        s.shoot(SourceId::Light(l as u32), &levels);
         s.stats.light_shots += 1;
     }
+    let budget = f64::from(settings.time_limit);
+    let shots_budget = if settings.photons > 0 {
+        budget / 2.0
+    } else {
+        budget
+    };
 
     // Then radiant patches, the most unshot power first.
     let mut patch_power: Vec<f64> = (0..s.mesh.patches.len()).map(|p| s.unshot_power(p)).collect();
@@ -322,28 +402,40 @@ pub(crate) fn solve_traced(
         let total: f64 = patch_power.iter().sum();
         s.stats.residual = if emitted > 0.0 { total / emitted } else { 0.0 };
         progress.set(((1.0 - s.stats.residual).clamp(0.0, 1.0) * 1000.0) as u64);
-        // `!(>)`: a NaN residual (which valid scenes cannot give) stops too.
-        if !(s.stats.residual > settings.tolerance as f64) || s.stats.patch_shots >= settings.max_shots as u64
-        {
-            break;
-        }
-        let (best, _) = patch_power
+        let (best, best_power) = patch_power
             .iter()
             .enumerate()
             .max_by(|a, b| a.1.total_cmp(b.1))
-            .expect("residual > 0 means patches exist");
-        let points = s.patch_points(best as u32);
+            .map(|(i, p)| (i, *p))
+            .unwrap_or((0, 0.0));
+        // `!(>)`: a NaN residual (which valid scenes cannot give) stops too. With
+        // photons to carry the rest, deterministic shots go on only while one patch
+        // holds at least `tolerance` of the emitted power.
+        let out_of_time = budget > 0.0 && start.elapsed().as_secs_f64() > shots_budget;
+        let weak = settings.photons > 0 && !(best_power > settings.tolerance as f64 * emitted);
+        if !(s.stats.residual > settings.tolerance as f64)
+            || s.stats.patch_shots >= settings.max_shots as u64
+            || weak
+            || out_of_time
+        {
+            s.stats.timed_out |= out_of_time;
+            break;
+        }
+        let levels = s.levels(|s, k| s.patch_points(best as u32, k));
         let first = s.mesh.patches[best].first_vertex as usize;
         let count = s.mesh.patches[best].vertex_count as usize;
         for u in &mut s.unshot[first..first + count] {
             *u = Vec3::ZERO;
         }
-        let touched = s.shoot(SourceId::Patch(best as u32), &points);
+        let touched = s.shoot(SourceId::Patch(best as u32), &levels);
         s.stats.patch_shots += 1;
         patch_power[best] = 0.0;
         for p in touched {
             patch_power[p] = s.unshot_power(p);
         }
+    }
+    if settings.photons > 0 && s.stats.residual > 0.0 {
+        s.photons(start, budget, progress, trace);
     }
     progress.finish();
     s.stats.time_s = start.elapsed().as_secs_f64();
@@ -389,8 +481,56 @@ impl Solver<'_> {
         move |k| Vec2::new(sobol_burley::sample(k, 0, seed), sobol_burley::sample(k, 1, seed))
     }
 
-    /// Shooting points of light `l`.
-    fn light_points(&self, l: u32) -> Vec<ShootPoint> {
+    /// The shooting cells of a source at 1, 4, 16 ... up to `shoot_samples` cells
+    /// (`points(self, count)` makes one set), with the bounds that choose among them.
+    fn levels(&self, points: impl Fn(&Self, u32) -> Vec<ShootPoint>) -> Levels {
+        let max = self.settings.shoot_samples.max(1);
+        let mut sets = Vec::new();
+        let mut k = 1;
+        loop {
+            let k_now = k.min(max);
+            let set = points(self, k_now);
+            // A point light, or a source whose cells do not get finer: one set.
+            let done = k_now == max || set.len() <= 1 && set.first().is_some_and(|p| p.len == 0);
+            sets.push(set);
+            if done {
+                break;
+            }
+            k *= 4;
+        }
+        let finest = sets.last().map(Vec::as_slice).unwrap_or(&[]);
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        let mut area = 0.0;
+        for sp in finest {
+            for c in &sp.poly[..sp.len.max(1) as usize] {
+                let c = if sp.len == 0 { sp.p } else { *c };
+                lo = lo.min(c);
+                hi = hi.max(c);
+            }
+            if sp.len >= 3 {
+                let poly = &sp.poly[..sp.len as usize];
+                let mut n = Vec3::ZERO;
+                for i in 1..poly.len() - 1 {
+                    n += (poly[i] - poly[0]).cross(poly[i + 1] - poly[0]);
+                }
+                area += 0.5 * n.length();
+            }
+        }
+        let (centre, radius) = if lo.x <= hi.x {
+            ((lo + hi) * 0.5, (hi - lo).length() * 0.5)
+        } else {
+            (Vec3::ZERO, 0.0)
+        };
+        Levels {
+            sets,
+            centre,
+            radius,
+            area,
+        }
+    }
+
+    /// Shooting points of light `l`: about `count` cells over an area light's surface.
+    fn light_points(&self, l: u32, count: u32) -> Vec<ShootPoint> {
         match self.scene.lights[l as usize] {
             Light::Point { position, intensity } => vec![ShootPoint::point(position, intensity)],
             Light::Spot {
@@ -405,11 +545,11 @@ impl Solver<'_> {
                     .map(|&x| x as usize)
                     .unwrap_or(self.mesh.front_patches as usize);
                 let area: f32 = self.mesh.patches[first..last].iter().map(|p| p.area).sum();
-                let jitter = self.jitter(u64::from(l) << 32);
+                let jitter = self.jitter(u64::from(l) << 32 | u64::from(count));
                 let mut pts = Vec::new();
                 for p in first..last {
                     let share = self.mesh.patches[p].area / area;
-                    let k = ((self.settings.shoot_samples as f32 * share).round() as u32).max(1);
+                    let k = ((count as f32 * share).round() as u32).max(1);
                     let base = (p - first) as u32 * 1_000_003;
                     for c in self
                         .mesh
@@ -423,15 +563,114 @@ impl Solver<'_> {
         }
     }
 
-    /// Shooting cells of patch `p`, carrying its unshot radiosity.
-    fn patch_points(&self, p: u32) -> Vec<ShootPoint> {
-        let jitter = self.jitter(self.stats.patch_shots + 1);
+    /// About `count` shooting cells of patch `p`, carrying its unshot radiosity.
+    fn patch_points(&self, p: u32, count: u32) -> Vec<ShootPoint> {
+        let jitter = self.jitter((self.stats.patch_shots + 1) | u64::from(count) << 48);
         self.mesh
-            .shoot_cells(p, self.settings.shoot_samples, jitter)
+            .shoot_cells(p, count, jitter)
             .iter()
             .map(|c| ShootPoint::from_cell(c, c.interp.apply(&self.unshot)))
             .filter(|sp| sp.radiosity.max_element() > 0.0)
             .collect()
+    }
+
+    /// The stochastic part: photons carry what the deterministic shots left unshot
+    /// (see [`photons`]). `trace` records the sources folded into general radiosity.
+    fn photons(&mut self, start: Instant, budget: f64, progress: &dyn Progress, trace: bool) {
+        let nv = self.mesh.vertices.len();
+        let receiving = self
+            .mesh
+            .vertices
+            .iter()
+            .filter(|v| self.mesh.patches[v.patch as usize].reflectance.max_element() > 0.0)
+            .count() as u64;
+        let n = u64::from(self.settings.photons) * receiving;
+        let (emit, emit_cdf) = photons::Tracer::emitters(&self.mesh, &self.unshot);
+        let mut light_cdf = Vec::new();
+        let mut acc = 0.0;
+        for l in &self.scene.lights {
+            acc += light_power(self.scene, l);
+            light_cdf.push(acc);
+        }
+        let light_photons = if photons::has_mirrors(self.scene) && acc > 0.0 {
+            n / 4
+        } else {
+            0
+        };
+        let slots = self.settings.sources_per_patch as usize;
+        let mut general_b = vec![Vec3::ZERO; nv];
+        let mut slot_b: Vec<Option<Vec<Rgb>>> = vec![None; slots];
+        let tracer = photons::Tracer {
+            scene: self.scene,
+            accel: self.accel,
+            mesh: &self.mesh,
+            lists: &self.lists,
+            unshot: &self.unshot,
+            seed: self.settings.seed,
+            patch_photons: if emit.is_empty() { 0 } else { n },
+            emit,
+            emit_cdf,
+            light_photons,
+            light_cdf,
+        };
+        let total = tracer.patch_photons + tracer.light_photons;
+        let chunks = tracer.chunks();
+        progress.start("photons", chunks);
+        let round = (4 * rayon::current_num_threads() as u64).max(8);
+        let mut done = 0;
+        while done < chunks {
+            let end = (done + round).min(chunks);
+            for (deposits, rays) in tracer.trace_chunks(done..end) {
+                self.stats.photon_rays += rays;
+                for d in deposits {
+                    let v = d.vertex as usize;
+                    if d.slot == u8::MAX {
+                        general_b[v] += d.value;
+                        if trace {
+                            if let Some(src) = d.source {
+                                self.folded[self.mesh.vertices[v].patch as usize].insert(src);
+                            }
+                        }
+                    } else {
+                        slot_b[d.slot as usize].get_or_insert_with(|| vec![Vec3::ZERO; nv])[v] += d.value;
+                    }
+                }
+            }
+            done = end;
+            progress.set(done);
+            if budget > 0.0 && start.elapsed().as_secs_f64() > budget && done < chunks {
+                self.stats.timed_out = true;
+                break;
+            }
+        }
+        progress.finish();
+        let traced = (done * 1024).min(total);
+        self.stats.photons = traced;
+        if traced == 0 {
+            return;
+        }
+        // The photons traced stand for all of them.
+        let scale = total as f32 / traced as f32;
+        for (g, b) in self.general.iter_mut().zip(&general_b) {
+            *g += *b * scale;
+        }
+        for (k, b) in slot_b.iter().enumerate() {
+            let Some(b) = b else { continue };
+            for (p, list) in self.lists.iter_mut().enumerate() {
+                let Some(e) = list.get_mut(k) else { continue };
+                let first = self.mesh.patches[p].first_vertex as usize;
+                for (i, (o, u)) in e.occluded.iter_mut().zip(e.unoccluded.iter_mut()).enumerate() {
+                    let add = b[first + i] * scale;
+                    // Photons see no occluders they missed: the stochastic light counts
+                    // as unoccluded too.
+                    *o += add;
+                    *u += add;
+                }
+            }
+        }
+        for u in &mut self.unshot {
+            *u = Vec3::ZERO;
+        }
     }
 
     /// Light from `points` at vertex `v`: (occluded, unoccluded) irradiance and rays.
@@ -491,10 +730,11 @@ impl Solver<'_> {
     /// Shoots from `points` of `source` to every vertex not on the source itself and
     /// files the light in the lists or general radiosity. Returns the patches that
     /// received light.
-    fn shoot(&mut self, source: SourceId, points: &[ShootPoint]) -> Vec<usize> {
-        if points.is_empty() {
+    fn shoot(&mut self, source: SourceId, levels: &Levels) -> Vec<usize> {
+        if levels.sets.iter().all(Vec::is_empty) {
             return Vec::new();
         }
+        let max = self.settings.shoot_samples;
         let skip_patch = match source {
             SourceId::Patch(p) => Some(p),
             SourceId::Light(_) => None,
@@ -525,7 +765,7 @@ impl Solver<'_> {
                     return (Vec3::ZERO, Vec3::ZERO, 0);
                 }
                 let rho = mesh.patches[v.patch as usize].reflectance;
-                let (o, u, r) = self.gather(points, v, sampled.as_ref());
+                let (o, u, r) = self.gather(levels.for_vertex(v.q, max), v, sampled.as_ref());
                 (o * rho, u * rho, r)
             })
             .collect();
@@ -639,6 +879,8 @@ mod tests {
             tolerance: 1e-4,
             max_shots,
             seed: 3,
+            photons: 0,
+            time_limit: 0.0,
         }
     }
 
@@ -908,5 +1150,125 @@ mod tests {
             .install(|| solve(&s, &bvh, &st, &Silent).unwrap());
         assert_eq!(a.general, b.general);
         assert_eq!(a.lists, b.lists);
+    }
+
+    /// A point light at height h over a plane cut into many triangles (merged into one
+    /// patch): every vertex's radiosity is rho I h / r^3.
+    #[test]
+    fn point_light_over_a_merged_plane_matches_the_closed_form() {
+        let mut plane = crate::geometry::TriMesh::default();
+        let k = 40u32;
+        for j in 0..=k {
+            for i in 0..=k {
+                plane.positions.push(Vec3::new(
+                    4.0 * i as f32 / k as f32 - 2.0,
+                    4.0 * j as f32 / k as f32 - 2.0,
+                    0.0,
+                ));
+            }
+        }
+        let at = |i: u32, j: u32| j * (k + 1) + i;
+        for j in 0..k {
+            for i in 0..k {
+                for t in [
+                    [at(i, j), at(i + 1, j), at(i + 1, j + 1)],
+                    [at(i, j), at(i + 1, j + 1), at(i, j + 1)],
+                ] {
+                    plane.tri_patch.push(plane.patches.len() as u32);
+                    plane.patches.push(crate::geometry::Patch::Polygon(t.to_vec()));
+                    plane.indices.push(t);
+                }
+            }
+        }
+        let (h, i0, rho) = (1.5f32, 2.0f32, 0.6f32);
+        let light = Light::Point {
+            position: Vec3::new(0.3, -0.2, h),
+            intensity: Vec3::splat(i0),
+        };
+        let s = scene(vec![(plane, Vec3::splat(rho))], vec![light], &[]);
+        let mut st = settings(0.5, 4, 0);
+        st.photons = 16;
+        let sol = solve(&s, &Bvh::build(&s), &st, &Silent).unwrap();
+        assert_eq!(sol.mesh.patches.len(), 1);
+        assert!(sol.mesh.vertices.len() < 200, "{}", sol.mesh.vertices.len());
+        let e = &sol.lists[0][0];
+        for (v, b) in sol.mesh.vertices.iter().zip(&e.occluded) {
+            let d = Vec3::new(0.3, -0.2, h) - v.q;
+            let r = d.length();
+            let expect = rho * i0 * h / (r * r * r);
+            assert!(
+                (b.x - expect).abs() < 1e-3 * expect,
+                "{:?}: {} vs {expect}",
+                v.q,
+                b.x
+            );
+        }
+        // A plane alone reflects nothing back onto itself.
+        assert!(sol.general.iter().all(|g| g.x == 0.0));
+    }
+
+    /// Photons: the same solution for a seed at 1 and 2 threads; energy still conserved.
+    #[test]
+    fn photons_give_the_same_solution_at_one_and_two_threads_and_conserve_energy() {
+        let rho = 0.6;
+        let faces = box_inside(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.5));
+        let light = Light::Point {
+            position: Vec3::new(0.7, 0.6, 0.5),
+            intensity: Vec3::splat(3.0),
+        };
+        let s = scene(
+            faces.into_iter().map(|f| (f, Vec3::splat(rho))).collect(),
+            vec![light],
+            &[],
+        );
+        let bvh = Bvh::build(&s);
+        let mut st = settings(0.1, 16, 3);
+        st.tolerance = 0.02;
+        st.photons = 64;
+        let a = solve(&s, &bvh, &st, &Silent).unwrap();
+        let b = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(|| solve(&s, &bvh, &st, &Silent).unwrap());
+        assert_eq!(a.general, b.general);
+        assert_eq!(a.lists, b.lists);
+        assert!(a.stats.photons > 0 && a.stats.patch_shots == 3);
+        // Everything emitted is absorbed: rho / (1 - rho) of the direct light comes back.
+        let total = a.total();
+        let absorbed: f64 = a
+            .mesh
+            .vertices
+            .iter()
+            .zip(&total)
+            .map(|(v, b)| (b.x / rho * (1.0 - rho) * v.area) as f64)
+            .sum();
+        let emitted = a.stats.emitted_power;
+        assert!(
+            (absorbed - emitted).abs() < 0.02 * emitted,
+            "{absorbed} vs {emitted}"
+        );
+    }
+
+    /// The furnace with photons carrying all but the first shots.
+    #[test]
+    fn furnace_with_photons() {
+        let rho = 0.5;
+        let faces = box_inside(Vec3::ZERO, Vec3::ONE);
+        let emitters: Vec<(usize, Rgb)> = (0..6).map(|i| (i, Vec3::splat(1.0 / PI))).collect();
+        let s = scene(
+            faces.into_iter().map(|f| (f, Vec3::splat(rho))).collect(),
+            vec![],
+            &emitters,
+        );
+        let mut st = settings(0.1, 16, 6);
+        st.photons = 256;
+        let sol = solve(&s, &Bvh::build(&s), &st, &Silent).unwrap();
+        let total = sol.total();
+        let expect = rho / (1.0 - rho);
+        for p in 0..6 {
+            let m = patch_mean(&sol, &total, p);
+            assert!((m - expect).abs() < 0.02 * expect, "face {p}: {m} vs {expect}");
+        }
     }
 }

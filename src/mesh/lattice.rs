@@ -1,0 +1,486 @@
+//! Patches that follow surfaces, not triangles.
+//!
+//! The scene's polygons are grouped, per shape, into *clusters*: polygons that share
+//! an edge and face the same way (the same dominant axis of the normal) are joined when
+//! they are coplanar, or when both are small (no edge longer than the mesh size). A
+//! cluster of one large polygon is meshed by its own grid (see `mod.rs`); every other
+//! cluster becomes one patch meshed by a *lattice*: a regular square grid of side
+//! `mesh size` in the plane perpendicular to the cluster's dominant axis. Its vertices
+//! are the corners of the lattice cells the cluster's triangles overlap, each placed
+//! at the nearest point of the surface; a point of the surface is interpolated
+//! bilinearly from the four corners of its cell. So a plane cut into 10,000 triangles
+//! is one patch with (area / mesh size^2) elements, and a finely tessellated chair gets
+//! vertices no closer than the mesh size, whatever its triangle count.
+
+use std::collections::HashMap;
+
+use glam::{Vec2, Vec3};
+
+use super::Interp;
+use crate::geometry::{Patch, TriMesh};
+
+/// A lattice over one cluster.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Lattice {
+    /// The axis the lattice plane is perpendicular to (0 x, 1 y, 2 z).
+    pub axis: u8,
+    /// Lattice coordinates of the lower corner of cell (0, 0).
+    pub origin: Vec2,
+    /// Cell side (world units, in the lattice plane).
+    pub cell: f32,
+    /// Cells along the two lattice coordinates.
+    pub n: u32,
+    /// See `n`.
+    pub m: u32,
+    /// The nodes that are vertices: (node key `j * (n + 1) + i`, vertex offset in the
+    /// patch), sorted by key.
+    pub nodes: Vec<(u32, u32)>,
+    /// The cells used (key `j * n + i`), sorted: the elements.
+    pub cells: Vec<u32>,
+    /// The cluster's triangles (the exact surface), wound to face the patch's side.
+    pub surface: Vec<[Vec3; 3]>,
+}
+
+/// The two lattice coordinates of `p` for a lattice perpendicular to `axis`.
+pub fn project(axis: u8, p: Vec3) -> Vec2 {
+    match axis {
+        0 => Vec2::new(p.y, p.z),
+        1 => Vec2::new(p.z, p.x),
+        _ => Vec2::new(p.x, p.y),
+    }
+}
+
+fn tri_normal(t: &[Vec3; 3]) -> Vec3 {
+    (t[1] - t[0]).cross(t[2] - t[0])
+}
+
+/// Closest point of triangle `t` to `x`, both in lattice coordinates; returns its
+/// barycentrics (of corners 1 and 2).
+fn closest_2d(t: [Vec2; 3], x: Vec2) -> Vec2 {
+    let (a, b, c) = (t[0], t[1], t[2]);
+    let cross = |u: Vec2, v: Vec2| u.x * v.y - u.y * v.x;
+    let area = cross(b - a, c - a);
+    if area.abs() > 1e-20 {
+        let l1 = cross(x - a, c - a) / area;
+        let l2 = cross(b - a, x - a) / area;
+        if l1 >= 0.0 && l2 >= 0.0 && l1 + l2 <= 1.0 {
+            return Vec2::new(l1, l2);
+        }
+    }
+    // On an edge: the nearest of the three edge projections.
+    let seg = |p: Vec2, q: Vec2| {
+        let d = q - p;
+        let l = d.length_squared();
+        let s = if l > 0.0 {
+            ((x - p).dot(d) / l).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (s, (p + d * s - x).length_squared())
+    };
+    let (s0, d0) = seg(a, b);
+    let (s1, d1) = seg(b, c);
+    let (s2, d2) = seg(c, a);
+    if d0 <= d1 && d0 <= d2 {
+        Vec2::new(s0, 0.0)
+    } else if d1 <= d2 {
+        Vec2::new(1.0 - s1, s1)
+    } else {
+        Vec2::new(0.0, 1.0 - s2)
+    }
+}
+
+/// Whether triangle `t` overlaps the square `[lo, lo + side]^2` (separating axes).
+fn overlaps(t: [Vec2; 3], lo: Vec2, side: f32) -> bool {
+    let hi = lo + Vec2::splat(side);
+    let tlo = t[0].min(t[1]).min(t[2]);
+    let thi = t[0].max(t[1]).max(t[2]);
+    if tlo.x > hi.x || tlo.y > hi.y || thi.x < lo.x || thi.y < lo.y {
+        return false;
+    }
+    let corners = [lo, Vec2::new(hi.x, lo.y), hi, Vec2::new(lo.x, hi.y)];
+    for k in 0..3 {
+        let (p, q, r) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+        let e = q - p;
+        let nrm = Vec2::new(-e.y, e.x);
+        let side_r = nrm.dot(r - p);
+        // The square lies wholly on the side away from r: separated.
+        let eps = 1e-6 * (e.length() * side).max(1e-30);
+        if corners.iter().all(|c| nrm.dot(*c - p) * side_r.signum() < -eps) {
+            return false;
+        }
+    }
+    true
+}
+
+impl Lattice {
+    fn node_key(&self, i: u32, j: u32) -> u32 {
+        j * (self.n + 1) + i
+    }
+
+    /// The vertex offset of node (i, j), if it is a vertex.
+    pub fn node(&self, i: u32, j: u32) -> Option<u32> {
+        let k = self.node_key(i, j);
+        self.nodes
+            .binary_search_by_key(&k, |e| e.0)
+            .ok()
+            .map(|x| self.nodes[x].1)
+    }
+
+    /// Lattice cell and offsets of a point given in lattice coordinates.
+    fn cell_of(&self, x: Vec2) -> (u32, u32, f32, f32) {
+        let f = (x - self.origin) / self.cell;
+        let i = (f.x.floor().max(0.0) as u32).min(self.n - 1);
+        let j = (f.y.floor().max(0.0) as u32).min(self.m - 1);
+        let a = (f.x - i as f32).clamp(0.0, 1.0);
+        let b = (f.y - j as f32).clamp(0.0, 1.0);
+        (i, j, a, b)
+    }
+
+    /// Bilinear weights at point `p` of the surface over the vertices of its cell
+    /// (`base` is the patch's first vertex). Corners that are not vertices (only at
+    /// the rim of the cluster, within rounding) drop out and the rest are scaled up;
+    /// a point in no used cell takes the nearest vertex.
+    pub fn interp(&self, base: u32, p: Vec3) -> Interp {
+        let x = project(self.axis, p);
+        let (i, j, a, b) = self.cell_of(x);
+        let corners = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)];
+        let w = [(1.0 - a) * (1.0 - b), a * (1.0 - b), a * b, (1.0 - a) * b];
+        let mut out = Interp {
+            vertices: [base; 4],
+            weights: [0.0; 4],
+        };
+        let mut sum = 0.0;
+        for k in 0..4 {
+            if let Some(v) = self.node(corners[k].0, corners[k].1) {
+                out.vertices[k] = base + v;
+                out.weights[k] = w[k];
+                sum += w[k];
+            }
+        }
+        if sum > 1e-6 {
+            for wk in &mut out.weights {
+                *wk /= sum;
+            }
+            return out;
+        }
+        // Nearest vertex node.
+        let best = self
+            .nodes
+            .iter()
+            .min_by(|u, v| {
+                let d = |e: &(u32, u32)| {
+                    let (ni, nj) = (e.0 % (self.n + 1), e.0 / (self.n + 1));
+                    (self.origin + Vec2::new(ni as f32, nj as f32) * self.cell - x).length_squared()
+                };
+                d(u).total_cmp(&d(v))
+            })
+            .map(|e| e.1)
+            .unwrap_or(0);
+        Interp {
+            vertices: [base + best; 4],
+            weights: [1.0, 0.0, 0.0, 0.0],
+        }
+    }
+
+    /// Vertex offsets of the corners of used cell `c`, counter-clockwise in lattice
+    /// coordinates.
+    pub fn cell_vertices(&self, c: u32) -> [u32; 4] {
+        let (i, j) = (c % self.n, c / self.n);
+        [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)]
+            .map(|(a, b)| self.node(a, b).expect("corner of a used cell"))
+    }
+}
+
+/// A vertex made by [`build`]: position on the surface, normal, receiving point and
+/// area share.
+pub struct LatticeVertex {
+    pub p: Vec3,
+    pub n: Vec3,
+    pub q: Vec3,
+    pub area: f32,
+}
+
+/// Meshes the triangles `surface` (one cluster, wound to face its front) by a lattice
+/// of side `cell`; returns the lattice, its vertices (in offset order) and the area.
+pub fn build(surface: Vec<[Vec3; 3]>, cell: f32) -> (Lattice, Vec<LatticeVertex>, f32) {
+    let normal: Vec3 = surface.iter().map(tri_normal).sum();
+    let axis = if normal.x.abs() >= normal.y.abs() && normal.x.abs() >= normal.z.abs() {
+        0
+    } else if normal.y.abs() >= normal.z.abs() {
+        1
+    } else {
+        2
+    };
+    let flat: Vec<[Vec2; 3]> = surface.iter().map(|t| t.map(|p| project(axis, p))).collect();
+    let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
+    for t in &flat {
+        for p in t {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+    }
+    let span = (hi - lo).max(Vec2::ZERO);
+    let cells_along = |s: f32| ((s / cell).ceil() as u32).clamp(1, 1 << 14);
+    let (n, m) = (cells_along(span.x), cells_along(span.y));
+    // Centre the lattice on the cluster.
+    let origin = lo - (Vec2::new(n as f32, m as f32) * cell - span) * 0.5;
+    let mut lat = Lattice {
+        axis,
+        origin,
+        cell,
+        n,
+        m,
+        nodes: Vec::new(),
+        cells: Vec::new(),
+        surface,
+    };
+
+    // Cells the triangles overlap.
+    let mut used = Vec::new();
+    for t in &flat {
+        let tlo = t[0].min(t[1]).min(t[2]);
+        let thi = t[0].max(t[1]).max(t[2]);
+        let (i0, j0, _, _) = lat.cell_of(tlo);
+        let (i1, j1, _, _) = lat.cell_of(thi);
+        for j in j0..=j1 {
+            for i in i0..=i1 {
+                let corner = origin + Vec2::new(i as f32, j as f32) * cell;
+                if (i0 == i1 && j0 == j1) || overlaps(*t, corner, cell) {
+                    used.push(j * n + i);
+                }
+            }
+        }
+    }
+    used.sort_unstable();
+    used.dedup();
+    let mut keys: Vec<u32> = used
+        .iter()
+        .flat_map(|&c| {
+            let (i, j) = (c % n, c / n);
+            [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)].map(|(a, b)| b * (n + 1) + a)
+        })
+        .collect();
+    keys.sort_unstable();
+    keys.dedup();
+    lat.cells = used;
+    lat.nodes = keys.iter().enumerate().map(|(k, &key)| (key, k as u32)).collect();
+
+    // Each vertex at the nearest surface point (nearest in the lattice plane), with
+    // that triangle's normal; the receiving point a hair towards the triangle's centre.
+    let mut best: Vec<(f32, Vec3, Vec3, Vec3)> =
+        vec![(f32::INFINITY, Vec3::ZERO, Vec3::Z, Vec3::ZERO); keys.len()];
+    for (t, f) in lat.surface.iter().zip(&flat) {
+        let nrm = tri_normal(t).normalize_or(Vec3::Z);
+        let centre = (t[0] + t[1] + t[2]) / 3.0;
+        let tlo = f[0].min(f[1]).min(f[2]) - Vec2::splat(cell);
+        let thi = f[0].max(f[1]).max(f[2]) + Vec2::splat(cell);
+        let (i0, j0, _, _) = lat.cell_of(tlo);
+        let (i1, j1, _, _) = lat.cell_of(thi);
+        for j in j0..=(j1 + 1).min(m) {
+            for i in i0..=(i1 + 1).min(n) {
+                let Some(v) = lat.node(i, j) else { continue };
+                let x = origin + Vec2::new(i as f32, j as f32) * cell;
+                let b = closest_2d(*f, x);
+                let q2 = f[0] + (f[1] - f[0]) * b.x + (f[2] - f[0]) * b.y;
+                let d = (q2 - x).length_squared();
+                if d < best[v as usize].0 {
+                    let p = t[0] + (t[1] - t[0]) * b.x + (t[2] - t[0]) * b.y;
+                    best[v as usize] = (d, p, nrm, centre);
+                }
+            }
+        }
+    }
+    let mut verts: Vec<LatticeVertex> = best
+        .iter()
+        .map(|&(_, p, n, c)| LatticeVertex {
+            p,
+            n,
+            q: p + (c - p) * super::NUDGE,
+            area: 0.0,
+        })
+        .collect();
+
+    // Area shares: each triangle's area spread by the bilinear weights at the centres
+    // of its pieces (pieces no larger than half a cell).
+    let mut total = 0.0f64;
+    for t in &lat.surface {
+        let a = 0.5 * tri_normal(t).length();
+        total += a as f64;
+        let longest = (t[1] - t[0])
+            .length()
+            .max((t[2] - t[1]).length())
+            .max((t[0] - t[2]).length());
+        let k = ((2.0 * longest / cell).ceil() as u32).clamp(1, 64);
+        let piece = a / (k * k) as f32;
+        for j in 0..k {
+            for i in 0..k - j {
+                let mut centres = vec![(i as f32 + 1.0 / 3.0, j as f32 + 1.0 / 3.0)];
+                if i + j + 1 < k {
+                    centres.push((i as f32 + 2.0 / 3.0, j as f32 + 2.0 / 3.0));
+                }
+                for (s, r) in centres {
+                    let p = t[0] + (t[1] - t[0]) * (s / k as f32) + (t[2] - t[0]) * (r / k as f32);
+                    let w = lat.interp(0, p);
+                    for c in 0..4 {
+                        verts[w.vertices[c] as usize].area += piece * w.weights[c];
+                    }
+                }
+            }
+        }
+    }
+    (lat, verts, total as f32)
+}
+
+/// How the polygons of one shape are grouped into patches.
+pub struct Clusters {
+    /// Per scene patch, its cluster.
+    pub of_patch: Vec<u32>,
+    /// Per cluster, its scene patches in order.
+    pub members: Vec<Vec<u32>>,
+}
+
+/// Groups the polygons of `mesh` (see the module's text); Bezier pieces stay alone.
+/// `merge_all` joins every edge-connected polygon facing the same way, whatever its
+/// size (for surfaces that keep no radiosity).
+pub fn clusters(mesh: &TriMesh, mesh_size: f32, merge_all: bool) -> Clusters {
+    let np = mesh.patches.len();
+    let mut parent: Vec<u32> = (0..np as u32).collect();
+    fn find(parent: &mut [u32], mut x: u32) -> u32 {
+        while parent[x as usize] != x {
+            parent[x as usize] = parent[parent[x as usize] as usize];
+            x = parent[x as usize];
+        }
+        x
+    }
+    // Per polygon: normal, plane offset, dominant axis with sign, and whether small.
+    struct Info {
+        n: Vec3,
+        d: f32,
+        bucket: u8,
+        small: bool,
+        centre: Vec3,
+    }
+    let mut scale = 0.0f32;
+    if let Some((a, b)) = mesh.bounds() {
+        scale = (b - a).length();
+    }
+    let info: Vec<Option<Info>> = mesh
+        .patches
+        .iter()
+        .map(|p| match p {
+            Patch::Polygon(idx) if idx.len() >= 3 => {
+                let pts: Vec<Vec3> = idx.iter().map(|&i| mesh.positions[i as usize]).collect();
+                let mut n = Vec3::ZERO;
+                for k in 0..pts.len() {
+                    let (a, b) = (pts[k], pts[(k + 1) % pts.len()]);
+                    n += a.cross(b);
+                }
+                let n = n.normalize_or_zero();
+                if n == Vec3::ZERO {
+                    return None;
+                }
+                let axis = if n.x.abs() >= n.y.abs() && n.x.abs() >= n.z.abs() {
+                    0
+                } else if n.y.abs() >= n.z.abs() {
+                    1
+                } else {
+                    2
+                };
+                let bucket = axis * 2 + u8::from(n[axis as usize] < 0.0);
+                let longest = (0..pts.len())
+                    .map(|k| (pts[(k + 1) % pts.len()] - pts[k]).length())
+                    .fold(0.0, f32::max);
+                // Small: no edge longer than the mesh size, or no more area than one
+                // element (long slivers: a chair leg's sides).
+                let area = 0.5
+                    * (1..pts.len() - 1)
+                        .map(|k| (pts[k] - pts[0]).cross(pts[k + 1] - pts[0]))
+                        .sum::<Vec3>()
+                        .length();
+                Some(Info {
+                    n,
+                    d: n.dot(pts[0]),
+                    bucket,
+                    small: longest <= mesh_size || area <= mesh_size * mesh_size,
+                    centre: pts.iter().sum::<Vec3>() / pts.len() as f32,
+                })
+            }
+            _ => None,
+        })
+        .collect();
+    // Vertices identified by position (meshes may repeat a position).
+    let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
+    let canon: Vec<u32> = mesh
+        .positions
+        .iter()
+        .map(|p| {
+            let next = ids.len() as u32;
+            *ids.entry([p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
+                .or_insert(next)
+        })
+        .collect();
+    let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
+    let tol = 1e-5 * scale.max(1e-6);
+    for (pi, p) in mesh.patches.iter().enumerate() {
+        let (Patch::Polygon(idx), Some(a)) = (p, &info[pi]) else {
+            continue;
+        };
+        for k in 0..idx.len() {
+            let (u, v) = (canon[idx[k] as usize], canon[idx[(k + 1) % idx.len()] as usize]);
+            let key = (u.min(v), u.max(v));
+            match edges.get(&key) {
+                None => {
+                    edges.insert(key, pi as u32);
+                }
+                Some(&other) => {
+                    let b = info[other as usize].as_ref().expect("listed polygons have info");
+                    let coplanar = a.n.dot(b.n) > 1.0 - 1e-5 && (a.d - b.d).abs() <= tol;
+                    if a.bucket == b.bucket && (coplanar || merge_all || (a.small && b.small)) {
+                        let (ra, rb) = (find(&mut parent, pi as u32), find(&mut parent, other));
+                        if ra != rb {
+                            parent[ra.max(rb) as usize] = ra.min(rb);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    // Small polygons facing the same way whose centres fall in one cube of the mesh
+    // size join too, connected or not: the parts of a finely modelled object (a
+    // chair's slats, a lamp's ribs) share vertices no closer than the mesh size.
+    let mut cubes: HashMap<(u8, [i64; 3]), u32> = HashMap::new();
+    for (pi, a) in info.iter().enumerate() {
+        let Some(a) = a else { continue };
+        if !(a.small || merge_all) || !(mesh_size > 0.0) {
+            continue;
+        }
+        let c = (a.centre / mesh_size).floor();
+        let key = (a.bucket, [c.x as i64, c.y as i64, c.z as i64]);
+        match cubes.get(&key) {
+            None => {
+                cubes.insert(key, pi as u32);
+            }
+            Some(&other) => {
+                let (ra, rb) = (find(&mut parent, pi as u32), find(&mut parent, other));
+                if ra != rb {
+                    parent[ra.max(rb) as usize] = ra.min(rb);
+                }
+            }
+        }
+    }
+    let mut index: HashMap<u32, u32> = HashMap::new();
+    let mut of_patch = Vec::with_capacity(np);
+    let mut members: Vec<Vec<u32>> = Vec::new();
+    for pi in 0..np as u32 {
+        let r = find(&mut parent, pi);
+        let next = members.len() as u32;
+        let c = *index.entry(r).or_insert(next);
+        if c == next {
+            members.push(Vec::new());
+        }
+        members[c as usize].push(pi);
+        of_patch.push(c);
+    }
+    Clusters { of_patch, members }
+}

@@ -1,0 +1,421 @@
+//! The stochastic part of pass 1: the power the deterministic shots leave unshot is
+//! carried by photons (particle tracing, "stochastic shooting": Neumann et al. 1995,
+//! Bekaert's collision estimator), whose cost follows the rays cast, not vertices x
+//! shots.
+//!
+//! Photons leave the radiant patches in proportion to their unshot radiosity (and,
+//! when the scene has mirrors, the light sources: light -> mirror -> diffuse paths,
+//! paper Sect. 6). At every diffuse hit a photon leaves its reflected power on the
+//! vertices of the element hit, in proportion to their interpolation weights and
+//! inversely to their areas, so a smooth field is estimated without bias; then it is
+//! reflected diffusely or specularly, or absorbed (Russian roulette on the
+//! reflectance). Light that comes straight from a source listed on the patch hit goes
+//! to that list entry, everything else to the general radiosity: one route per source.
+//!
+//! Photons are traced in fixed chunks whose deposits are added in chunk order, so the
+//! result depends on the seed alone, never on the threads.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::accel::{Accel, Ray};
+use crate::emitters::spot_falloff;
+use crate::interaction::{offset_from, SurfacePoint};
+use crate::mesh::{Interp, RadiosityMesh};
+use crate::sampling::{shot_seed, uniform3};
+use crate::scene::{Light, Rgb, Scene};
+
+use super::SourceId;
+
+/// A piece of a radiant surface photons leave from.
+#[derive(Debug, Clone, Copy)]
+pub struct EmitTri {
+    /// Corners (the exact surface, or an element over it).
+    pub corners: [Vec3; 3],
+    /// The patch.
+    pub patch: u32,
+    /// The element's vertices (`None`: a merged patch's own triangle, whose weights
+    /// come from its lattice).
+    pub verts: Option<[u32; 3]>,
+}
+
+/// Photons in one chunk (the unit of determinism).
+const CHUNK: u64 = 1024;
+/// Bounces followed at most.
+const MAX_BOUNCES: u32 = 32;
+/// Seeds of photons start here, clear of the shots' seeds.
+const SEED_BASE: u64 = 1 << 40;
+
+/// Where a deposit goes: vertex `vertex`, into list slot `slot` of its patch, or the
+/// general radiosity (`slot` = `u8::MAX`); `source` is what it came straight from.
+#[derive(Debug, Clone, Copy)]
+pub struct Deposit {
+    pub vertex: u32,
+    pub slot: u8,
+    pub source: Option<SourceId>,
+    pub value: Rgb,
+}
+
+/// What the photons read: the scene, its mesh, the lists (to route deposits) and
+/// the unshot radiosity they carry.
+pub struct Tracer<'a> {
+    pub scene: &'a Scene,
+    pub accel: &'a dyn Accel,
+    pub mesh: &'a RadiosityMesh,
+    pub lists: &'a [Vec<super::ListEntry>],
+    pub unshot: &'a [Rgb],
+    pub seed: u64,
+    /// Surface pieces with unshot light, and the cumulative sum of their power.
+    pub emit: Vec<EmitTri>,
+    pub emit_cdf: Vec<f64>,
+    /// Photons from patches, and from lights (only with mirrors in the scene).
+    pub patch_photons: u64,
+    pub light_photons: u64,
+    /// Light powers (mean of RGB) and their cumulative sum.
+    pub light_cdf: Vec<f64>,
+}
+
+fn mean(c: Rgb) -> f32 {
+    (c.x + c.y + c.z) / 3.0
+}
+
+/// A direction about `n` with density cos / pi.
+fn cosine_dir(n: Vec3, u: f32, v: f32) -> Vec3 {
+    let r = u.sqrt();
+    let phi = 2.0 * std::f32::consts::PI * v;
+    let (a, b) = n.any_orthonormal_pair();
+    (a * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - u).max(0.0).sqrt()).normalize_or(n)
+}
+
+fn triangle_point(t: &[Vec3; 3], u: f32, v: f32) -> Vec3 {
+    let q = u.sqrt();
+    t[0] + (t[1] - t[0]) * (q * (1.0 - v)) + (t[2] - t[0]) * (q * v)
+}
+
+fn pick(cdf: &[f64], x: f64) -> usize {
+    let total = *cdf.last().unwrap_or(&0.0);
+    cdf.partition_point(|&c| c <= x * total)
+        .min(cdf.len().saturating_sub(1))
+}
+
+impl<'a> Tracer<'a> {
+    /// The radiant pieces of every patch with unshot light: element triangles (the
+    /// exact surface for merged patches).
+    pub fn emitters(mesh: &RadiosityMesh, unshot: &[Rgb]) -> (Vec<EmitTri>, Vec<f64>) {
+        let mut emit = Vec::new();
+        let mut cdf = Vec::new();
+        let mut acc = 0.0f64;
+        for (p, mp) in mesh.patches.iter().enumerate() {
+            let first = mp.first_vertex as usize;
+            let any = unshot[first..first + mp.vertex_count as usize]
+                .iter()
+                .any(|u| u.max_element() > 0.0);
+            if !any {
+                continue;
+            }
+            let mut push = |corners: [Vec3; 3], verts: Option<[u32; 3]>, value: f32| {
+                let area = 0.5 * (corners[1] - corners[0]).cross(corners[2] - corners[0]).length();
+                let w = f64::from(area * value.max(0.0));
+                if w > 0.0 {
+                    acc += w;
+                    emit.push(EmitTri {
+                        corners,
+                        patch: p as u32,
+                        verts,
+                    });
+                    cdf.push(acc);
+                }
+            };
+            match mp.grids.first().map(|g| &g.domain) {
+                Some(crate::mesh::Domain::Lattice(l)) if mp.grids.len() == 1 => {
+                    let base = mp.grids[0].first_vertex;
+                    for t in &l.surface {
+                        let c = (t[0] + t[1] + t[2]) / 3.0;
+                        // Bound the density by the largest corner of the cell.
+                        let w = l.interp(base, c);
+                        let hi = (0..4)
+                            .map(|k| mean(unshot[w.vertices[k] as usize]))
+                            .fold(0.0, f32::max);
+                        push(*t, None, hi);
+                    }
+                }
+                _ => {
+                    for t in mesh.element_triangles(p as u32) {
+                        let hi = t.iter().map(|&v| mean(unshot[v as usize])).fold(0.0, f32::max);
+                        push(t.map(|v| mesh.vertices[v as usize].p), Some(t), hi);
+                    }
+                }
+            }
+        }
+        (emit, cdf)
+    }
+
+    /// The interpolation weights at point `x` of emitting piece `e`.
+    fn interp_at(&self, e: &EmitTri, x: Vec3) -> Interp {
+        let mp = &self.mesh.patches[e.patch as usize];
+        match (e.verts, mp.grids.first().map(|g| &g.domain)) {
+            (None, Some(crate::mesh::Domain::Lattice(l))) => l.interp(mp.grids[0].first_vertex, x),
+            (Some(t), _) => {
+                let c = e.corners;
+                let n = (c[1] - c[0]).cross(c[2] - c[0]);
+                let l2 = n.length_squared().max(1e-30);
+                let b1 = (x - c[0]).cross(c[2] - c[0]).dot(n) / l2;
+                let b2 = (c[1] - c[0]).cross(x - c[0]).dot(n) / l2;
+                Interp {
+                    vertices: [t[0], t[1], t[2], t[0]],
+                    weights: [1.0 - b1 - b2, b1, b2, 0.0],
+                }
+            }
+            (None, _) => Interp {
+                vertices: [mp.first_vertex; 4],
+                weights: [0.0; 4],
+            },
+        }
+    }
+
+    /// Traces chunk `c` and returns its deposits and the rays cast.
+    pub fn chunk(&self, c: u64) -> (Vec<Deposit>, u64) {
+        let mut out = Vec::new();
+        let mut rays = 0;
+        let total = self.patch_photons + self.light_photons;
+        for i in c * CHUNK..((c + 1) * CHUNK).min(total) {
+            let seed = shot_seed(self.seed, SEED_BASE + i);
+            let mut draw = 0u32;
+            let mut next = || {
+                draw += 1;
+                uniform3(seed, draw)
+            };
+            let (origin, normal, dir, power, source, from_light) = if i < self.patch_photons {
+                let [a, b, cc] = next();
+                let k = pick(&self.emit_cdf, f64::from(a));
+                let e = &self.emit[k];
+                let x = triangle_point(&e.corners, b, cc);
+                let n = (e.corners[1] - e.corners[0]).cross(e.corners[2] - e.corners[0]);
+                let area = 0.5 * n.length();
+                let n = n.normalize_or(Vec3::Z);
+                let prob = (self.emit_cdf[k] - if k > 0 { self.emit_cdf[k - 1] } else { 0.0 })
+                    / self.emit_cdf.last().copied().unwrap_or(1.0);
+                let w = self.interp_at(e, x);
+                let b_unshot = w.apply(self.unshot);
+                // Radiosity B over area A sends B A; per photon over its probability.
+                let power = b_unshot * (area / (prob as f32 * self.patch_photons as f32));
+                let [u, v, _] = next();
+                (
+                    x,
+                    n,
+                    cosine_dir(n, u, v),
+                    power,
+                    Some(SourceId::Patch(e.patch)),
+                    false,
+                )
+            } else {
+                let [a, u, v] = next();
+                let l = pick(&self.light_cdf, f64::from(a));
+                let share = (self.light_cdf[l] - if l > 0 { self.light_cdf[l - 1] } else { 0.0 })
+                    / self.light_cdf.last().copied().unwrap_or(1.0);
+                let count = self.light_photons as f32 * share as f32;
+                match emit_light(self.scene, &self.scene.lights[l], u, v, next()) {
+                    Some((x, n, d, p)) => (x, n, d, p / count, None, true),
+                    None => continue,
+                }
+            };
+            if !(power.max_element() > 0.0) {
+                continue;
+            }
+            self.trace(
+                origin, normal, dir, power, source, from_light, &mut next, &mut out, &mut rays,
+            );
+        }
+        (out, rays)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn trace(
+        &self,
+        mut origin: Vec3,
+        mut normal: Vec3,
+        mut dir: Vec3,
+        mut power: Rgb,
+        mut source: Option<SourceId>,
+        from_light: bool,
+        next: &mut impl FnMut() -> [f32; 3],
+        out: &mut Vec<Deposit>,
+        rays: &mut u64,
+    ) {
+        let mut first = from_light;
+        for _ in 0..MAX_BOUNCES {
+            let ray = Ray {
+                origin: if normal == Vec3::ZERO {
+                    origin
+                } else {
+                    offset_from(origin, normal, dir)
+                },
+                dir,
+                tmin: 0.0,
+                tmax: f32::INFINITY,
+            };
+            *rays += 1;
+            let Some(hit) = self.accel.intersect(&ray) else {
+                return;
+            };
+            let sp = SurfacePoint::new(self.scene, &ray, &hit);
+            let bsdf = &self.scene.bsdfs[self.scene.shapes[hit.shape as usize].bsdf as usize];
+            if !sp.front && !bsdf.twosided {
+                return;
+            }
+            let rho = bsdf.kind.diffuse_albedo();
+            let cos = (-dir).dot(sp.ns).max(0.0);
+            let spec = bsdf.kind.mirror(cos);
+            if first {
+                // Straight from a light: the deterministic shots hold that; only the
+                // mirrors pass it on.
+                first = false;
+                let ps = mean(spec).min(1.0);
+                let [u, _, _] = next();
+                if !(ps > 0.0) || u >= ps {
+                    return;
+                }
+                power *= spec / ps;
+                origin = sp.p;
+                normal = sp.ng;
+                dir = dir - 2.0 * dir.dot(sp.ns) * sp.ns;
+                source = None;
+                continue;
+            }
+            let q = self.mesh.patch_at(self.scene, &hit, sp.front);
+            if rho.max_element() > 0.0 {
+                let w = self.mesh.locate(self.scene, &hit, sp.p, sp.front);
+                let slot = source
+                    .and_then(|s| self.lists[q as usize].iter().position(|e| e.source == s))
+                    .map_or(u8::MAX, |k| k as u8);
+                for k in 0..4 {
+                    if w.weights[k] > 0.0 {
+                        let v = w.vertices[k];
+                        let area = self.mesh.vertices[v as usize].area;
+                        if area > 0.0 {
+                            out.push(Deposit {
+                                vertex: v,
+                                slot,
+                                source,
+                                value: rho * power * (w.weights[k] / area),
+                            });
+                        }
+                    }
+                }
+            }
+            let (pd, ps) = (mean(rho).min(1.0), mean(spec).min(1.0));
+            let [u, a, b] = next();
+            if u < pd {
+                power *= rho / pd;
+                dir = cosine_dir(sp.ns, a, b);
+                if dir.dot(sp.ng) <= 0.0 {
+                    return;
+                }
+                source = Some(SourceId::Patch(q));
+            } else if u < pd + ps && ps > 0.0 {
+                power *= spec / ps;
+                dir = dir - 2.0 * dir.dot(sp.ns) * sp.ns;
+                source = None;
+            } else {
+                return;
+            }
+            origin = sp.p;
+            normal = sp.ng;
+        }
+    }
+
+    /// Number of chunks.
+    pub fn chunks(&self) -> u64 {
+        (self.patch_photons + self.light_photons).div_ceil(CHUNK)
+    }
+
+    /// Traces chunks `range` in parallel; their deposits in chunk order.
+    pub fn trace_chunks(&self, range: std::ops::Range<u64>) -> Vec<(Vec<Deposit>, u64)> {
+        range.into_par_iter().map(|c| self.chunk(c)).collect()
+    }
+}
+
+/// A photon leaving light `light`: origin, surface normal (zero for points),
+/// direction and power (for one photon: divide by the count).
+fn emit_light(
+    scene: &Scene,
+    light: &Light,
+    u: f32,
+    v: f32,
+    more: [f32; 3],
+) -> Option<(Vec3, Vec3, Vec3, Rgb)> {
+    use std::f32::consts::PI;
+    match *light {
+        Light::Point { position, intensity } => {
+            let z = 1.0 - 2.0 * u;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = 2.0 * PI * v;
+            Some((
+                position,
+                Vec3::ZERO,
+                Vec3::new(r * phi.cos(), r * phi.sin(), z),
+                intensity * (4.0 * PI),
+            ))
+        }
+        Light::Spot {
+            position,
+            direction,
+            intensity,
+            cutoff_angle,
+            beam_width,
+        } => {
+            let cos_c = cutoff_angle.cos();
+            let cos_t = 1.0 - u * (1.0 - cos_c);
+            let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+            let phi = 2.0 * PI * v;
+            let (a, b) = direction.any_orthonormal_pair();
+            let d = a * (sin_t * phi.cos()) + b * (sin_t * phi.sin()) + direction * cos_t;
+            let beam = beam_width.min(cutoff_angle);
+            let inv = if cutoff_angle > beam {
+                1.0 / (cutoff_angle - beam)
+            } else {
+                0.0
+            };
+            let f = spot_falloff(cos_t, cutoff_angle, cos_c, beam.cos(), inv);
+            Some((
+                position,
+                Vec3::ZERO,
+                d,
+                intensity * (f * 2.0 * PI * (1.0 - cos_c)),
+            ))
+        }
+        Light::Area { shape, radiance } => {
+            let mesh = &scene.shapes[shape as usize].mesh;
+            let n = mesh.triangle_count();
+            if n == 0 {
+                return None;
+            }
+            let areas: Vec<f64> = (0..n)
+                .map(|t| {
+                    let [a, b, c] = mesh.triangle(t);
+                    0.5 * f64::from((b - a).cross(c - a).length())
+                })
+                .collect();
+            let total: f64 = areas.iter().sum();
+            let mut x = f64::from(more[0]) * total;
+            let mut k = n - 1;
+            for (t, a) in areas.iter().enumerate() {
+                if x < *a {
+                    k = t;
+                    break;
+                }
+                x -= a;
+            }
+            let t = mesh.triangle(k);
+            let p = triangle_point(&t, u, v);
+            let nrm = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or(Vec3::Z);
+            let d = cosine_dir(nrm, more[1], more[2]);
+            Some((p, nrm, d, radiance * (PI * total as f32)))
+        }
+    }
+}
+
+/// Whether any surface of the scene reflects like a mirror.
+pub fn has_mirrors(scene: &Scene) -> bool {
+    scene.bsdfs.iter().any(|b| b.kind.has_mirror())
+}
