@@ -344,9 +344,11 @@ def mitsuba_defines(exe: str, scene: Path, work: Path) -> dict:
 # default first, then more effort on the radiosity (pass 1) and the image (pass 2).
 EFFORT = [[], ["--shoot-samples", "128"], ["--shoot-samples", "128", "--max-level", "3"]]
 # Scenes (by file stem) where that ladder would not finish. The conference room
-# (331,179 triangles, each a patch): with the default pass 1 (64 cells per shot, down
-# to 1 % unshot, up to 20,000 shots) the solve would run for days; scenes/README.md
-# measures 16 cells and 40 shots at 167 s on 2 cores, and more shots are the next step.
+# (331,179 triangles): scenes/README.md measured 16 cells and 40 shots at 167 s on 2
+# cores, and estimated days for the default pass 1 (64 cells per shot, down to 1 %
+# unshot, up to 20,000 shots), both with one patch per polygon, before pass 1 merged
+# coplanar and small polygons and gained photons and --solve-time; re-measure before
+# trusting these budgets. More shots are the next step.
 RADTRACE_EFFORT = {
     "conference": [
         ["--shoot-samples", "16", "--max-shots", "40"],
