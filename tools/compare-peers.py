@@ -15,7 +15,10 @@
    (its render time and mean FLIP against the reference), and radtrace's default render
    (the whole process, solve included) with its FLIP against the same reference; if
    radtrace's FLIP is worse it is re-run with more effort until it is not. The figure is
-   Mitsuba's time / radtrace's time (issue 6: at least 5 on the Cornell box).
+   Mitsuba's time / radtrace's time (issue 6: at least 5 on the Cornell box). Default
+   scenes: the Cornell box and the conference room; radtrace gets a per-scene pass-1
+   budget where its defaults would not finish (RADTRACE_EFFORT), and Mitsuba the -D
+   parameters it needs (the paper room's teapot as an OBJ: mitsuba_defines).
 
 Ratios, not absolute times, are the figures: the machine is shared and noisy. Each
 figure is the best of --rounds rounds (alternating the two tracers) of --repeats runs; 1-thread figures are per second of the thread's
@@ -24,6 +27,8 @@ printed: N-thread figures mean little when it is above the core count.
 
 Usage (from the repository root):
     python3 tools/compare-peers.py                      # Cornell box, paper room, conference
+    python3 tools/compare-peers.py --no-rays --mitsuba-scenes scenes/conference/conference.xml \
+        --reference /path/to/conference-path-1024.exr   # an existing 1024 spp reference
     python3 tools/compare-peers.py --scenes scenes/cornell-box/cornell-box.xml --json out.json
 
 The script re-runs itself in a virtual environment (default ~/.cache/radtrace-peers)
@@ -325,7 +330,9 @@ def flip(exe: str, ref: Path, img: Path) -> float:
 
 
 def mitsuba_defines(exe: str, scene: Path, work: Path) -> dict:
-    """Scene parameters Mitsuba needs: the paper room's Bezier teapot as an OBJ."""
+    """Scene parameters (-D) Mitsuba needs: the paper room's Bezier teapot as an OBJ.
+    radtrace renders every scene with its defaults; the Cornell box and the conference
+    room need none (both load their meshes as they are)."""
     if "teapot_type" not in scene.read_text():
         return {}
     obj = work / "teapot.obj"
@@ -336,12 +343,43 @@ def mitsuba_defines(exe: str, scene: Path, work: Path) -> dict:
 # radtrace settings tried in turn until its FLIP is no worse than Mitsuba's: the
 # default first, then more effort on the radiosity (pass 1) and the image (pass 2).
 EFFORT = [[], ["--shoot-samples", "128"], ["--shoot-samples", "128", "--max-level", "3"]]
+# Scenes (by file stem) where that ladder would not finish. The conference room
+# (331,179 triangles): scenes/README.md measured 16 cells and 40 shots at 167 s on 2
+# cores, and estimated days for the default pass 1 (64 cells per shot, down to 1 %
+# unshot, up to 20,000 shots), both with one patch per polygon, before pass 1 merged
+# coplanar and small polygons and gained photons and --solve-time; re-measure before
+# trusting these budgets. More shots are the next step.
+RADTRACE_EFFORT = {
+    "conference": [
+        ["--shoot-samples", "16", "--max-shots", "40"],
+        ["--shoot-samples", "16", "--max-shots", "160"],
+        ["--shoot-samples", "16", "--max-shots", "160", "--max-level", "3"],
+    ],
+}
+
+
+def reference_key(scene: Path, defines: dict) -> str:
+    """Cache key of a Mitsuba reference: the scene file, the files it names (meshes,
+    textures: the conference's PLYs changed without its XML having to) and the -D
+    parameters given to Mitsuba."""
+    import hashlib
+    import re
+
+    h = hashlib.sha256(scene.read_bytes())
+    for name in sorted(set(re.findall(r'name="filename"\s+value="([^"$]+)"', scene.read_text()))):
+        f = scene.parent / name
+        if f.is_file():
+            h.update(name.encode() + b"\0" + f.read_bytes())
+    for k, v in sorted(defines.items()):
+        # The value may be a temporary path (the teapot OBJ): key on its contents.
+        h.update(f"{k}=".encode() + (Path(v).read_bytes() if Path(v).is_file() else v.encode()))
+    return h.hexdigest()[:12]
 
 
 def mitsuba_time_to_quality(args, exe: str):
-    import hashlib
-
     rows = []
+    if args.reference and len(args.mitsuba_scenes) != 1:
+        sys.exit("compare-peers: error: --reference needs exactly one scene in --mitsuba-scenes")
     cache = args.venv / "references"
     cache.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
@@ -353,7 +391,7 @@ def mitsuba_time_to_quality(args, exe: str):
             if view != 0:
                 sys.exit("compare-peers: error: the Mitsuba comparison renders sensor 0 only")
             defines = mitsuba_defines(exe, scene, work)
-            key = hashlib.sha256(scene.read_bytes()).hexdigest()[:12]
+            key = reference_key(scene, defines)
             ref = Path(args.reference) if args.reference else cache / f"{scene.stem}-{key}-{args.reference_spp}spp.exr"
             if not ref.exists():
                 print(f"compare-peers: Mitsuba reference, {args.reference_spp} spp (cached in {ref})", file=sys.stderr)
@@ -365,7 +403,7 @@ def mitsuba_time_to_quality(args, exe: str):
                 if best_m is None or m["render_s"] < best_m["render_s"]:
                     best_m = m
             f_m = flip(exe, ref, work / "m.exr")
-            for effort in EFFORT:
+            for effort in RADTRACE_EFFORT.get(scene.stem, EFFORT):
                 print(f"compare-peers: radtrace {' '.join(effort) or '(default)'} on {scene.name}", file=sys.stderr)
                 t_r = None
                 for _ in range(args.rounds):
@@ -409,7 +447,8 @@ def main():
     ap.add_argument("--json", type=Path, help="also write the results as JSON")
     ap.add_argument("--no-rays", action="store_true", help="skip the ray comparison with Embree")
     ap.add_argument("--no-mitsuba", action="store_true", help="skip the time-to-quality comparison with Mitsuba")
-    ap.add_argument("--mitsuba-scenes", nargs="+", default=["scenes/cornell-box/cornell-box.xml"],
+    ap.add_argument("--mitsuba-scenes", nargs="+",
+                    default=["scenes/cornell-box/cornell-box.xml", "scenes/conference/conference.xml"],
                     help="scenes of the Mitsuba comparison (sensor 0)")
     ap.add_argument("--mitsuba-spp", type=int, default=64, help="Mitsuba's samples per pixel to match")
     ap.add_argument("--reference-spp", type=int, default=1024, help="samples per pixel of the Mitsuba reference")

@@ -5,11 +5,12 @@ Usage: python3 convert.py PATH/TO/conference.obj PATH/TO/conference.mtl [OUT_DIR
 
 Plain Python 3, no packages, no network. For each `usemtl` material it writes
 OUT_DIR/meshes/<material>.ply with only the vertices that material's faces use
-(positions scaled by 0.003 to metres, float32) and its faces as they are in the
-OBJ (triangles and the few quads and pentagons kept as one polygon each: radtrace
-makes one radiosity patch per polygon); texture coordinates are dropped. It prints
-one line per material: name, faces, vertices, and the MTL's Kd, which the scene
-file uses as the diffuse reflectance. Empty materials are skipped.
+(positions scaled by 0.003 to metres, float32) and triangles only: each OBJ face
+is fan-triangulated, (0, 1, 2), (0, 2, 3), ..., in its own winding (the OBJ has
+342 quads among its triangles, and Mitsuba 3's PLY reader takes triangles only);
+texture coordinates are dropped. It prints one line per material: name, OBJ
+faces, triangles written, vertices, and the MTL's Kd, which the scene file uses
+as the diffuse reflectance. Empty materials are skipped.
 """
 
 import os
@@ -70,7 +71,8 @@ def write_ply(path, positions, faces):
                 remap[i] = len(verts)
                 verts.append(positions[i])
             g.append(remap[i])
-        out_faces.append(g)
+        # Fan-triangulate (Mitsuba 3 reads triangle PLYs only).
+        out_faces.extend([g[0], g[k], g[k + 1]] for k in range(1, len(g) - 1))
     header = (
         "ply\n"
         "format binary_little_endian 1.0\n"
@@ -84,8 +86,8 @@ def write_ply(path, positions, faces):
     with open(path, "wb") as f:
         f.write(header.encode("ascii"))
         f.write(b"".join(struct.pack("<3f", *v) for v in verts))
-        f.write(b"".join(struct.pack(f"<B{len(g)}i", len(g), *g) for g in out_faces))
-    return len(verts)
+        f.write(b"".join(struct.pack("<B3i", 3, *g) for g in out_faces))
+    return len(verts), len(out_faces)
 
 
 def main():
@@ -101,8 +103,7 @@ def main():
     print(f"bounds (m): {lo} .. {hi}")
     total = 0
     for name in order:
-        n = write_ply(os.path.join(out, "meshes", name + ".ply"), positions, faces[name])
-        tris = sum(len(g) - 2 for g in faces[name])
+        n, tris = write_ply(os.path.join(out, "meshes", name + ".ply"), positions, faces[name])
         total += tris
         k = kd.get(name, (0.5, 0.5, 0.5))
         print(f"{name:12} {len(faces[name]):7} faces {tris:7} triangles {n:7} vertices  Kd {k[0]:.6f} {k[1]:.6f} {k[2]:.6f}")
