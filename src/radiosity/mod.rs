@@ -434,7 +434,7 @@ fn solve_inner(
             patch_power[p] = s.unshot_power(p);
         }
     }
-    if settings.photons > 0 && s.stats.residual > 0.0 {
+    if settings.photons > 0 && (s.stats.residual > 0.0 || photons::has_mirrors(scene)) {
         s.photons(start, budget, progress, trace);
     }
     progress.finish();
