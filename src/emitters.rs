@@ -83,6 +83,19 @@ pub enum SampledLight {
     Area(AreaEmitter),
 }
 
+/// Light leaving a source: see [`SampledLight::emit`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Emission {
+    /// Where it leaves.
+    pub origin: Vec3,
+    /// The surface normal there (area lights).
+    pub normal: Option<Vec3>,
+    /// Unit direction.
+    pub dir: Vec3,
+    /// Power the choice stands for.
+    pub power: Rgb,
+}
+
 /// Mitsuba's spot falloff: 1 inside the beam width, falling linearly in angle to 0
 /// at the cutoff.
 pub fn spot_falloff(cos_theta: f32, cutoff: f32, cos_cutoff: f32, cos_beam: f32, inv_transition: f32) -> f32 {
@@ -182,6 +195,60 @@ impl SampledLight {
             SampledLight::Area(e) => e.sample(p, u),
         }
     }
+
+    /// Light leaving the source (for tracing photons), chosen by `u` in `[0,1)^4`:
+    /// the origin, the surface normal there (`None` for point and spot lights), a
+    /// direction and the power the choice stands for (the source's whole power for a
+    /// uniform choice: divide by the number of photons). Points emit uniformly over
+    /// the sphere, spots uniformly over their cone (weighted by the falloff), area
+    /// lights from a point uniform by area in a cosine-distributed direction.
+    pub fn emit(&self, u: [f32; 4]) -> Option<Emission> {
+        use std::f32::consts::PI;
+        match self {
+            SampledLight::Point { position, intensity } => {
+                let z = 1.0 - 2.0 * u[0];
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let phi = 2.0 * PI * u[1];
+                Some(Emission {
+                    origin: *position,
+                    normal: None,
+                    dir: Vec3::new(r * phi.cos(), r * phi.sin(), z),
+                    power: *intensity * (4.0 * PI),
+                })
+            }
+            SampledLight::Spot {
+                position,
+                axis,
+                intensity,
+                cutoff,
+                cos_cutoff,
+                cos_beam,
+                inv_transition,
+            } => {
+                let cos_t = 1.0 - u[0] * (1.0 - cos_cutoff);
+                let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+                let phi = 2.0 * PI * u[1];
+                let (a, b) = axis.any_orthonormal_pair();
+                let falloff = spot_falloff(cos_t, *cutoff, *cos_cutoff, *cos_beam, *inv_transition);
+                Some(Emission {
+                    origin: *position,
+                    normal: None,
+                    dir: a * (sin_t * phi.cos()) + b * (sin_t * phi.sin()) + *axis * cos_t,
+                    power: *intensity * (falloff * 2.0 * PI * (1.0 - cos_cutoff)),
+                })
+            }
+            SampledLight::Area(e) => {
+                let (origin, i, radiance) = e.point(Vec2::new(u[0], u[1]))?;
+                let n = e.normals[i];
+                Some(Emission {
+                    origin,
+                    normal: Some(n),
+                    dir: crate::sampling::cosine_direction(n, Vec2::new(u[2], u[3])),
+                    power: radiance * (PI * e.area),
+                })
+            }
+        }
+    }
 }
 
 impl AreaEmitter {
@@ -234,11 +301,18 @@ impl AreaEmitter {
     /// Uniform sample of the surface by area, mapped from `u` so that stratified `u`
     /// gives well-spread points.
     fn sample(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
+        let (point, i, radiance) = self.point(u)?;
+        self.light_sample(p, point, i, radiance)
+    }
+
+    /// The surface point `u` maps to (uniform by area): the point, its triangle and
+    /// the radiance there.
+    fn point(&self, u: Vec2) -> Option<(Vec3, usize, Rgb)> {
         if self.tris.is_empty() {
             return None;
         }
         if let Some([o, e1, e2]) = self.parallelogram {
-            return self.light_sample(p, o + e1 * u.x + e2 * u.y, 0, self.radiance);
+            return Some((o + e1 * u.x + e2 * u.y, 0, self.radiance));
         }
         let i = self.cdf.partition_point(|&c| c <= u.x).min(self.tris.len() - 1);
         let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
@@ -256,7 +330,7 @@ impl AreaEmitter {
             Some([ra, rb, rc]) => *ra * (1.0 - b1 - b2) + *rb * b1 + *rc * b2,
             None => self.radiance,
         };
-        self.light_sample(p, point, i, radiance)
+        Some((point, i, radiance))
     }
 
     /// The sample at `point` of triangle `i` with `radiance`, seen from `p`.

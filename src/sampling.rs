@@ -7,7 +7,7 @@
 //! on the threads or the order of the work, and two streams never share numbers.
 //! (The keys are those radtrace has always used, so images are unchanged.)
 
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 
 /// What a derived seed is for ([`derive`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -75,6 +75,15 @@ pub fn uniform3(seed: u32, index: u32) -> [f32; 3] {
     [f(0), f(1), f(2)]
 }
 
+/// A cosine-distributed unit direction about the unit normal `n`.
+pub fn cosine_direction(n: Vec3, u: Vec2) -> Vec3 {
+    let r = u.x.sqrt();
+    let phi = 2.0 * std::f32::consts::PI * u.y;
+    let (t, b) = n.any_orthonormal_pair();
+    let local = Vec2::new(r * phi.cos(), r * phi.sin());
+    (t * local.x + b * local.y + n * (1.0 - u.x).max(0.0).sqrt()).normalize()
+}
+
 /// SplitMix64's finaliser: a good 64-bit mixing function.
 fn splitmix64(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
@@ -137,5 +146,22 @@ mod tests {
         for b in bins {
             assert!((b as f64 / total - 0.1).abs() < 0.005, "{bins:?}");
         }
+    }
+
+    #[test]
+    fn cosine_directions_lie_in_the_hemisphere_with_mean_cosine_two_thirds() {
+        let n = Vec3::new(0.3, -0.5, 0.8).normalize();
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(1);
+        let k = 20000;
+        let mut sum = 0.0;
+        for _ in 0..k {
+            let d = cosine_direction(n, Vec2::new(rng.random(), rng.random()));
+            assert!((d.length() - 1.0).abs() < 1e-5);
+            assert!(d.dot(n) >= 0.0);
+            sum += d.dot(n) as f64;
+        }
+        // E[cos] under p = cos / pi is 2/3.
+        assert!((sum / k as f64 - 2.0 / 3.0).abs() < 0.01, "{}", sum / k as f64);
     }
 }

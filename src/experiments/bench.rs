@@ -20,7 +20,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use glam::{Vec2, Vec3};
+use glam::Vec2;
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -123,19 +123,10 @@ pub fn ray_sets(scene: &Scene, accel: &dyn Accel, opts: &Options) -> Result<RayS
         for _ in 0..opts.bounce_per_hit {
             let u = Vec2::new(rng.random(), rng.random());
             sets.incoherent
-                .push(sp.spawn(cosine_direction(sp.ng, u), f32::INFINITY));
+                .push(sp.spawn(crate::sampling::cosine_direction(sp.ng, u), f32::INFINITY));
         }
     }
     Ok(sets)
-}
-
-/// A cosine-distributed unit direction about the unit normal `n`.
-fn cosine_direction(n: Vec3, u: Vec2) -> Vec3 {
-    let r = u.x.sqrt();
-    let phi = 2.0 * std::f32::consts::PI * u.y;
-    let (t, b) = n.any_orthonormal_pair();
-    let local = Vec2::new(r * phi.cos(), r * phi.sin());
-    (t * local.x + b * local.y + n * (1.0 - u.x).max(0.0).sqrt()).normalize()
 }
 
 /// What a pass over a ray set found: hits (or occluded rays) and the sum of their
@@ -678,21 +669,5 @@ mod tests {
             f32::from_le_bytes(bytes[10 + hlen + 20..].try_into().unwrap()),
             6.0
         );
-    }
-
-    #[test]
-    fn cosine_directions_lie_in_the_hemisphere_with_mean_cosine_two_thirds() {
-        let n = Vec3::new(0.3, -0.5, 0.8).normalize();
-        let mut rng = rand_pcg::Pcg32::seed_from_u64(1);
-        let k = 20000;
-        let mut sum = 0.0;
-        for _ in 0..k {
-            let d = cosine_direction(n, Vec2::new(rng.random(), rng.random()));
-            assert!((d.length() - 1.0).abs() < 1e-5);
-            assert!(d.dot(n) >= 0.0);
-            sum += d.dot(n) as f64;
-        }
-        // E[cos] under p = cos / pi is 2/3.
-        assert!((sum / k as f64 - 2.0 / 3.0).abs() < 0.01, "{}", sum / k as f64);
     }
 }

@@ -1,10 +1,14 @@
 //! Pass 1 (paper Sect. 6): progressive-refinement radiosity ("shooting", Cohen et
 //! al. 1988) that keeps the strongest sources apart.
 //!
-//! Light sources shoot first, strongest first; then, repeatedly, the patch with the
-//! most unshot power. Every shot goes from points on the source to every mesh vertex
-//! with a ray-cast form factor and a shadow ray (Wallace et al. 1989), so occlusion is
-//! exact at the vertices. Each patch keeps a list of at most `n` sources whose
+//! Light sources shoot first, strongest first; then the patch with the most unshot
+//! power, while one patch holds at least `tolerance` of the emitted power. Every shot
+//! goes from cells on the source to every mesh vertex with an exact form factor per
+//! cell and a shadow ray to it (Wallace et al. 1989), so occlusion is exact at the
+//! vertices; a vertex takes as many cells as the solid angle it sees the source under
+//! asks for (`Levels`), so its rays follow the source's size and distance. What the
+//! shots leave unshot is carried by photons (module `photons`), whose cost follows the rays
+//! they cast. Each patch keeps a list of at most `n` sources whose
 //! contributions it stores separately, per vertex, both occluded and unoccluded; all
 //! other light goes into the vertex's *general radiosity*. A source that drops out of a
 //! list is folded into the general radiosity of that patch, so every source reaches a
@@ -46,11 +50,13 @@ pub struct SolveSettings {
     pub mesh_size: f32,
     /// n: sources kept apart per patch.
     pub sources_per_patch: u32,
-    /// Sample points on an area light or a shooting patch per shot.
+    /// Most cells of an area light or a shooting patch in a shot (for a vertex that
+    /// sees it under the whole hemisphere).
     pub shoot_samples: u32,
-    /// Stop when the unshot power falls below this fraction of the emitted power.
+    /// Deterministic shots stop when the unshot power falls below this fraction of
+    /// the emitted power, or, with photons, when no patch holds this fraction.
     pub tolerance: f32,
-    /// Stop after this many patch shots at most.
+    /// Deterministic patch shots at most.
     pub max_shots: u32,
     /// Seed for the sample points.
     pub seed: u64,
@@ -130,16 +136,15 @@ struct Levels {
     area: f32,
 }
 
-/// Cells a source filling the whole hemisphere gets, per cell of `--shoot-samples`
-/// ... : a source seen under solid angle w gets `w / 2pi * 4 * shoot_samples` cells.
-const HEMISPHERE_FACTOR: f32 = 1.0;
-
 impl Levels {
+    /// The cells for a vertex at `x`: a source seen under solid angle w (estimated
+    /// as area / distance^2 from its bounding sphere, at most 2 pi) asks for
+    /// `w / 2pi * max` cells; the coarsest set with that many is taken.
     fn for_vertex(&self, x: Vec3, max: u32) -> &[ShootPoint] {
         let d = (x - self.centre).length() - self.radius;
         let want = if d > 0.0 {
             let omega = (self.area / (d * d)).min(2.0 * std::f32::consts::PI);
-            omega / (2.0 * std::f32::consts::PI) * HEMISPHERE_FACTOR * max as f32
+            omega / (2.0 * std::f32::consts::PI) * max as f32
         } else {
             f32::INFINITY
         };
@@ -592,6 +597,7 @@ impl Solver<'_> {
             acc += light_power(self.scene, l);
             light_cdf.push(acc);
         }
+        let lights = SampledLight::prepare_all(self.scene);
         let light_photons = if photons::has_mirrors(self.scene) && acc > 0.0 {
             n / 4
         } else {
@@ -611,9 +617,10 @@ impl Solver<'_> {
             emit,
             emit_cdf,
             light_photons,
+            lights,
             light_cdf,
         };
-        let total = tracer.patch_photons + tracer.light_photons;
+        let total = tracer.total();
         let chunks = tracer.chunks();
         progress.start("photons", chunks);
         let round = (4 * rayon::current_num_threads() as u64).max(8);
@@ -644,7 +651,7 @@ impl Solver<'_> {
             }
         }
         progress.finish();
-        let traced = (done * 1024).min(total);
+        let traced = tracer.photons_in(done);
         self.stats.photons = traced;
         if traced == 0 {
             return;

@@ -15,15 +15,15 @@
 //! Photons are traced in fixed chunks whose deposits are added in chunk order, so the
 //! result depends on the seed alone, never on the threads.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use crate::accel::{Accel, Ray};
-use crate::emitters::spot_falloff;
+use crate::emitters::SampledLight;
 use crate::interaction::{offset_from, SurfacePoint};
 use crate::mesh::{Interp, RadiosityMesh};
-use crate::sampling::{shot_seed, uniform3};
-use crate::scene::{Light, Rgb, Scene};
+use crate::sampling::{cosine_direction, shot_seed, uniform3};
+use crate::scene::{Rgb, Scene};
 
 use super::SourceId;
 
@@ -71,20 +71,13 @@ pub struct Tracer<'a> {
     /// Photons from patches, and from lights (only with mirrors in the scene).
     pub patch_photons: u64,
     pub light_photons: u64,
-    /// Light powers (mean of RGB) and their cumulative sum.
+    /// The lights, prepared, and the cumulative sum of their powers.
+    pub lights: Vec<SampledLight>,
     pub light_cdf: Vec<f64>,
 }
 
 fn mean(c: Rgb) -> f32 {
     (c.x + c.y + c.z) / 3.0
-}
-
-/// A direction about `n` with density cos / pi.
-fn cosine_dir(n: Vec3, u: f32, v: f32) -> Vec3 {
-    let r = u.sqrt();
-    let phi = 2.0 * std::f32::consts::PI * v;
-    let (a, b) = n.any_orthonormal_pair();
-    (a * (r * phi.cos()) + b * (r * phi.sin()) + n * (1.0 - u).max(0.0).sqrt()).normalize_or(n)
 }
 
 fn triangle_point(t: &[Vec3; 3], u: f32, v: f32) -> Vec3 {
@@ -177,7 +170,7 @@ impl<'a> Tracer<'a> {
     pub fn chunk(&self, c: u64) -> (Vec<Deposit>, u64) {
         let mut out = Vec::new();
         let mut rays = 0;
-        let total = self.patch_photons + self.light_photons;
+        let total = self.total();
         for i in c * CHUNK..((c + 1) * CHUNK).min(total) {
             let seed = shot_seed(self.seed, SEED_BASE + i);
             let mut draw = 0u32;
@@ -203,7 +196,7 @@ impl<'a> Tracer<'a> {
                 (
                     x,
                     n,
-                    cosine_dir(n, u, v),
+                    cosine_direction(n, Vec2::new(u, v)),
                     power,
                     Some(SourceId::Patch(e.patch)),
                     false,
@@ -214,8 +207,16 @@ impl<'a> Tracer<'a> {
                 let share = (self.light_cdf[l] - if l > 0 { self.light_cdf[l - 1] } else { 0.0 })
                     / self.light_cdf.last().copied().unwrap_or(1.0);
                 let count = self.light_photons as f32 * share as f32;
-                match emit_light(self.scene, &self.scene.lights[l], u, v, next()) {
-                    Some((x, n, d, p)) => (x, n, d, p / count, None, true),
+                let [c, d, _] = next();
+                match self.lights[l].emit([u, v, c, d]) {
+                    Some(e) => (
+                        e.origin,
+                        e.normal.unwrap_or(Vec3::ZERO),
+                        e.dir,
+                        e.power / count,
+                        None,
+                        true,
+                    ),
                     None => continue,
                 }
             };
@@ -307,7 +308,7 @@ impl<'a> Tracer<'a> {
             let [u, a, b] = next();
             if u < pd {
                 power *= rho / pd;
-                dir = cosine_dir(sp.ns, a, b);
+                dir = cosine_direction(sp.ns, Vec2::new(a, b));
                 if dir.dot(sp.ng) <= 0.0 {
                     return;
                 }
@@ -324,94 +325,24 @@ impl<'a> Tracer<'a> {
         }
     }
 
+    /// Photons in all.
+    pub fn total(&self) -> u64 {
+        self.patch_photons + self.light_photons
+    }
+
     /// Number of chunks.
     pub fn chunks(&self) -> u64 {
-        (self.patch_photons + self.light_photons).div_ceil(CHUNK)
+        self.total().div_ceil(CHUNK)
+    }
+
+    /// Photons in the first `chunks` chunks.
+    pub fn photons_in(&self, chunks: u64) -> u64 {
+        (chunks * CHUNK).min(self.total())
     }
 
     /// Traces chunks `range` in parallel; their deposits in chunk order.
     pub fn trace_chunks(&self, range: std::ops::Range<u64>) -> Vec<(Vec<Deposit>, u64)> {
         range.into_par_iter().map(|c| self.chunk(c)).collect()
-    }
-}
-
-/// A photon leaving light `light`: origin, surface normal (zero for points),
-/// direction and power (for one photon: divide by the count).
-fn emit_light(
-    scene: &Scene,
-    light: &Light,
-    u: f32,
-    v: f32,
-    more: [f32; 3],
-) -> Option<(Vec3, Vec3, Vec3, Rgb)> {
-    use std::f32::consts::PI;
-    match *light {
-        Light::Point { position, intensity } => {
-            let z = 1.0 - 2.0 * u;
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            let phi = 2.0 * PI * v;
-            Some((
-                position,
-                Vec3::ZERO,
-                Vec3::new(r * phi.cos(), r * phi.sin(), z),
-                intensity * (4.0 * PI),
-            ))
-        }
-        Light::Spot {
-            position,
-            direction,
-            intensity,
-            cutoff_angle,
-            beam_width,
-        } => {
-            let cos_c = cutoff_angle.cos();
-            let cos_t = 1.0 - u * (1.0 - cos_c);
-            let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-            let phi = 2.0 * PI * v;
-            let (a, b) = direction.any_orthonormal_pair();
-            let d = a * (sin_t * phi.cos()) + b * (sin_t * phi.sin()) + direction * cos_t;
-            let beam = beam_width.min(cutoff_angle);
-            let inv = if cutoff_angle > beam {
-                1.0 / (cutoff_angle - beam)
-            } else {
-                0.0
-            };
-            let f = spot_falloff(cos_t, cutoff_angle, cos_c, beam.cos(), inv);
-            Some((
-                position,
-                Vec3::ZERO,
-                d,
-                intensity * (f * 2.0 * PI * (1.0 - cos_c)),
-            ))
-        }
-        Light::Area { shape, radiance } => {
-            let mesh = &scene.shapes[shape as usize].mesh;
-            let n = mesh.triangle_count();
-            if n == 0 {
-                return None;
-            }
-            let areas: Vec<f64> = (0..n)
-                .map(|t| {
-                    let [a, b, c] = mesh.triangle(t);
-                    0.5 * f64::from((b - a).cross(c - a).length())
-                })
-                .collect();
-            let total: f64 = areas.iter().sum();
-            let mut x = f64::from(more[0]) * total;
-            let mut k = n - 1;
-            for (t, a) in areas.iter().enumerate() {
-                if x < *a {
-                    k = t;
-                    break;
-                }
-                x -= a;
-            }
-            let t = mesh.triangle(k);
-            let p = triangle_point(&t, u, v);
-            let nrm = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or(Vec3::Z);
-            let d = cosine_dir(nrm, more[1], more[2]);
-            Some((p, nrm, d, radiance * (PI * total as f32)))
-        }
     }
 }
 
