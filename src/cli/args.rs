@@ -62,7 +62,8 @@ pub struct SolveArgs {
     /// evicted by radiant patches) [default: the number of lights, at least 4].
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=64))]
     pub(super) sources_per_patch: Option<u32>,
-    /// Sample cells per area light or shooting patch in each shot.
+    /// Most cells per area light or shooting patch in a shot (for a vertex that sees
+    /// it under the whole hemisphere; fewer as it looks smaller).
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub(super) shoot_samples: u32,
     /// Deterministic shots stop when the unshot power falls below this fraction of

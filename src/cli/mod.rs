@@ -212,7 +212,7 @@ fn run_solve(scene: &Scene, bvh: &Bvh, st: &SolveSettings, quiet: bool) -> Resul
     if !quiet {
         let s = &sol.stats;
         eprintln!(
-            "radtrace: solved: {} patches, {} elements, {} vertices (mesh size {:.4}); {} light + {} patch shots, {} rays, {:.2}% unshot, {:.2} s",
+            "radtrace: solved: {} patches, {} elements, {} vertices (mesh size {:.4}); {} light + {} patch shots, {} rays, {:.2}% left to {} photons ({} rays); {:.2} s{}",
             s.patches,
             s.elements,
             s.vertices,
@@ -221,7 +221,14 @@ fn run_solve(scene: &Scene, bvh: &Bvh, st: &SolveSettings, quiet: bool) -> Resul
             s.patch_shots,
             s.rays,
             100.0 * s.residual,
-            s.time_s
+            s.photons,
+            s.photon_rays,
+            s.time_s,
+            if s.timed_out {
+                " (cut short by --solve-time)"
+            } else {
+                ""
+            },
         );
     }
     Ok(sol)

@@ -353,6 +353,11 @@ pub fn clusters(mesh: &TriMesh, mesh_size: f32, merge_all: bool) -> Clusters {
         }
         x
     }
+    // The smaller root wins, so clusters are numbered by their first polygon.
+    fn union(parent: &mut [u32], a: u32, b: u32) {
+        let (ra, rb) = (find(parent, a), find(parent, b));
+        parent[ra.max(rb) as usize] = ra.min(rb);
+    }
     // Per polygon: normal, plane offset, dominant axis with sign, and whether small.
     struct Info {
         n: Vec3,
@@ -435,12 +440,12 @@ pub fn clusters(mesh: &TriMesh, mesh_size: f32, merge_all: bool) -> Clusters {
                 }
                 Some(&other) => {
                     let b = info[other as usize].as_ref().expect("listed polygons have info");
-                    let coplanar = a.n.dot(b.n) > 1.0 - 1e-5 && (a.d - b.d).abs() <= tol;
+                    // Plane offsets carry the rounding of positions far from the
+                    // origin: allow for it (a few ulps of the coordinates).
+                    let rounding = 1e-6 * a.centre.abs().max_element().max(b.centre.abs().max_element());
+                    let coplanar = a.n.dot(b.n) > 1.0 - 1e-4 && (a.d - b.d).abs() <= tol + rounding;
                     if a.bucket == b.bucket && (coplanar || merge_all || (a.small && b.small)) {
-                        let (ra, rb) = (find(&mut parent, pi as u32), find(&mut parent, other));
-                        if ra != rb {
-                            parent[ra.max(rb) as usize] = ra.min(rb);
-                        }
+                        union(&mut parent, pi as u32, other);
                     }
                 }
             }
@@ -461,12 +466,7 @@ pub fn clusters(mesh: &TriMesh, mesh_size: f32, merge_all: bool) -> Clusters {
             None => {
                 cubes.insert(key, pi as u32);
             }
-            Some(&other) => {
-                let (ra, rb) = (find(&mut parent, pi as u32), find(&mut parent, other));
-                if ra != rb {
-                    parent[ra.max(rb) as usize] = ra.min(rb);
-                }
-            }
+            Some(&other) => union(&mut parent, pi as u32, other),
         }
     }
     let mut index: HashMap<u32, u32> = HashMap::new();

@@ -1,6 +1,10 @@
-//! The radiosity mesh (paper Sect. 6): every patch of the scene is split into
-//! elements no larger than a mesh size, with vertices shared inside the patch.
-//! Radiosity values live at the vertices and are Gouraud-interpolated at hit points.
+//! The radiosity mesh (paper Sect. 6): the scene's polygons are merged into patches
+//! that follow surfaces ([`lattice`]), and every patch is split into elements no
+//! larger than a mesh size, with vertices shared inside the patch. Radiosity values
+//! live at the vertices and are Gouraud-interpolated at hit points.
+//!
+//! A merged patch is meshed by a square lattice (see [`Lattice`]); a lone polygon or
+//! Bezier piece as below.
 //!
 //! A patch is meshed as one or more regular *grids* over a parameter domain:
 //! a triangle as a triangular grid (barycentric), a quadrilateral as a bilinear grid,
@@ -62,7 +66,7 @@ pub struct Grid {
 pub struct MeshPatch {
     /// Shape index in the scene.
     pub shape: u32,
-    /// Patch index within the shape's mesh.
+    /// Index, within the shape's mesh, of the first scene patch merged into it.
     pub local: u32,
     /// Its grids (one, or a fan for polygons of five or more corners).
     pub grids: Vec<Grid>,

@@ -73,6 +73,14 @@ pub struct SolveFigures {
     pub residual: f64,
     /// Wall seconds of the solve.
     pub time_s: f64,
+    /// Photons per vertex asked for.
+    pub photons_per_vertex: u32,
+    /// Photons traced (they carry what the shots left: `residual`).
+    pub photons: u64,
+    /// Rays the photons cast.
+    pub photon_rays: u64,
+    /// Whether `--solve-time` cut the solve short.
+    pub timed_out: bool,
 }
 
 impl SolveFigures {
@@ -94,6 +102,10 @@ impl SolveFigures {
             emitted_power: s.emitted_power,
             residual: s.residual,
             time_s: s.time_s,
+            photons_per_vertex: sol.settings.photons,
+            photons: s.photons,
+            photon_rays: s.photon_rays,
+            timed_out: s.timed_out,
         }
     }
 }
