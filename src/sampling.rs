@@ -20,6 +20,10 @@ pub enum Stream {
     Reflection,
     /// The light points of ray-traced source `s` at one hit.
     Light(u32),
+    /// Where in each shooting cell the shadow rays of mesh vertex `v` aim (pass 1):
+    /// every vertex draws its own points, so the errors of neighbouring vertices do
+    /// not move together.
+    Receiver(u32),
 }
 
 impl Stream {
@@ -30,6 +34,7 @@ impl Stream {
             Stream::Path => 0x2545_f491,
             Stream::Reflection => 0x5bd1_e995,
             Stream::Light(s) => s.wrapping_mul(0x85eb_ca6b),
+            Stream::Receiver(v) => v.wrapping_mul(0xc2b2_ae35) ^ 0x27d4_eb2f,
         }
     }
 }

@@ -699,8 +699,15 @@ impl RadiosityMesh {
 
     /// The patch cut into about `count` cells for shooting from it (stratified:
     /// cells of a regular grid over each of the patch's grids, in proportion to
-    /// area), each with a point jittered inside it by `u`.
-    pub fn shoot_cells(&self, patch: u32, count: u32, u: impl Fn(u32) -> Vec2) -> Vec<ShootCell> {
+    /// area), each with a point jittered inside it by `u` and the mean of `field`
+    /// (per vertex; may be empty) over it.
+    pub fn shoot_cells(
+        &self,
+        patch: u32,
+        count: u32,
+        u: impl Fn(u32) -> Vec2,
+        field: &[Rgb],
+    ) -> Vec<ShootCell> {
         let p = &self.patches[patch as usize];
         let total = p.area;
         let mut out = Vec::with_capacity(count as usize);
@@ -711,12 +718,21 @@ impl RadiosityMesh {
             if let Domain::Lattice(l) = &grid.domain {
                 // The surface of a back twin is wound for the back already.
                 let base = grid.first_vertex;
-                out.extend(surface_cells(&l.surface, count, &u, |q| l.interp(base, q)));
+                let value = |q: Vec3| {
+                    if field.is_empty() {
+                        Vec3::ZERO
+                    } else {
+                        l.interp(base, q).apply(field)
+                    }
+                };
+                out.extend(surface_cells(&l.surface, count, &u, self.mesh_size, value));
                 continue;
             }
             let k = (count as f32 * grid.area / total).max(1.0);
             let side = (k.sqrt().round() as u32).max(1);
             let base = g as u32 * 65_537;
+            // Points of the field's mean: about two per element along each side.
+            let q = (2 * grid.n.max(grid.m)).div_ceil(side).clamp(1, 16);
             let mut push = |corners: &[(f32, f32)], idx: u32| {
                 let r = u(base + idx);
                 // Uniform point in the cell (triangle or parallelogram in parameters).
@@ -739,13 +755,33 @@ impl RadiosityMesh {
                 for (c, &(cs, ct)) in corners.iter().enumerate() {
                     poly[c] = grid.eval(cs, ct).0;
                 }
+                let value = if field.is_empty() {
+                    Vec3::ZERO
+                } else {
+                    cell_mean(q, corners.len() == 3, |a, b| {
+                        let (s, t) = if corners.len() == 3 {
+                            let (c0, c1, c2) = (corners[0], corners[1], corners[2]);
+                            (
+                                c0.0 + (c1.0 - c0.0) * a + (c2.0 - c0.0) * b,
+                                c0.1 + (c1.1 - c0.1) * a + (c2.1 - c0.1) * b,
+                            )
+                        } else {
+                            (
+                                corners[0].0 + (corners[1].0 - corners[0].0) * a,
+                                corners[0].1 + (corners[3].1 - corners[0].1) * b,
+                            )
+                        };
+                        grid.interp(s, t).apply(field)
+                    })
+                };
                 out.push(ShootCell {
                     corners: poly,
                     len: corners.len() as u8,
                     p: pos,
                     n,
-                    interp: grid.interp(s, t),
+                    value,
                     weight: 1.0,
+                    flat: !matches!(grid.domain, Domain::Bezier { .. }),
                 });
             };
             match grid.domain {
@@ -794,23 +830,54 @@ pub struct ShootCell {
     pub p: Vec3,
     /// Unit normal at the point (front).
     pub n: Vec3,
-    /// Vertex weights at the point.
-    pub interp: Interp,
+    /// The mean over the cell of the field it was cut with (zero without one): a
+    /// quadrature of points about half an element apart, so what a cell carries does
+    /// not depend on where its point was jittered.
+    pub value: Rgb,
     /// What the cell's light counts for: 1, or (area of the surface) / (area of the
     /// cells drawn) when the cells are a sample of a surface of more pieces than cells.
     pub weight: f32,
+    /// The cell is flat: every point of its corner polygon lies on the surface (not
+    /// so for a piece of a curved Bezier surface).
+    pub flat: bool,
+}
+
+/// The mean of `f` over a cell, by `q` x `q` points: on a square's grid of cell
+/// centres (`tri` false; local coordinates in [0, 1]^2), or at the centroids of a
+/// triangle cut into q^2 (`tri` true; barycentrics of corners 1 and 2).
+fn cell_mean(q: u32, tri: bool, f: impl Fn(f32, f32) -> Rgb) -> Rgb {
+    let qf = q as f32;
+    let mut sum = Vec3::ZERO;
+    for j in 0..q {
+        if tri {
+            for i in 0..q - j {
+                let (i, jf) = (i as f32, j as f32);
+                sum += f((i + 1.0 / 3.0) / qf, (jf + 1.0 / 3.0) / qf);
+                if i + jf + 1.0 < qf {
+                    sum += f((i + 2.0 / 3.0) / qf, (jf + 2.0 / 3.0) / qf);
+                }
+            }
+        } else {
+            for i in 0..q {
+                sum += f((i as f32 + 0.5) / qf, (j as f32 + 0.5) / qf);
+            }
+        }
+    }
+    sum / (q * q) as f32
 }
 
 /// About `count` shooting cells over the triangles `tris` (the exact surface, wound to
-/// face its front), each with a point jittered by `u` and the weights `interp` gives
-/// there. With fewer triangles than `count`, each is cut into a triangular grid in
-/// proportion to its area; with more, `count` of them are drawn in proportion to area
-/// (stratified along their cumulative area), each standing for its share.
+/// face its front), each with a point jittered by `u` and the mean of `value` over it
+/// (points about half of `mesh_size` apart). With fewer triangles than `count`, each is
+/// cut into a triangular grid in proportion to its area; with more, `count` of them
+/// stand for equal shares of the cumulative area (the triangle at each share's middle:
+/// no choice depends on the seed).
 pub fn surface_cells<'a>(
     tris: &'a [[Vec3; 3]],
     count: u32,
     u: &'a impl Fn(u32) -> Vec2,
-    interp: impl Fn(Vec3) -> Interp + 'a,
+    mesh_size: f32,
+    value: impl Fn(Vec3) -> Rgb + 'a,
 ) -> impl Iterator<Item = ShootCell> + 'a {
     let areas: Vec<f32> = tris
         .iter()
@@ -842,24 +909,29 @@ pub fn surface_cells<'a>(
             cdf.push(acc);
         }
         for c in 0..count {
-            let x = (f64::from(c) + f64::from(u(c ^ 0x5bd1_e995).x)) / f64::from(count) * acc;
+            let x = (f64::from(c) + 0.5) / f64::from(count) * acc;
             let i = cdf.partition_point(|&v| v < x).min(tris.len() - 1);
             pieces.push((tris[i], total / (count as f32 * areas[i].max(1e-30))));
         }
     }
     pieces.into_iter().enumerate().map(move |(k, (t, weight))| {
-        let r = u(k as u32);
-        let q = r.x.sqrt();
-        let p = t[0] + (t[1] - t[0]) * (q * (1.0 - r.y)) + (t[2] - t[0]) * (q * r.y);
+        let p = point_in_polygon(&t, u(k as u32));
         let mut corners = [Vec3::ZERO; 4];
         corners[..3].copy_from_slice(&t);
+        let n = (t[1] - t[0]).cross(t[2] - t[0]);
+        let side = (0.5 * n.length()).sqrt();
+        let q = ((2.0 * side / mesh_size.max(1e-30)).ceil() as u32).clamp(1, 16);
+        let value = cell_mean(q, true, |a, b| {
+            value(t[0] + (t[1] - t[0]) * a + (t[2] - t[0]) * b)
+        });
         ShootCell {
             corners,
             len: 3,
             p,
-            n: (t[1] - t[0]).cross(t[2] - t[0]).normalize_or(Vec3::Z),
-            interp: interp(p),
+            n: n.normalize_or(Vec3::Z),
+            value,
             weight,
+            flat: true,
         }
     })
 }
@@ -868,6 +940,19 @@ impl ShootCell {
     /// The corner polygon.
     pub fn polygon(&self) -> &[Vec3] {
         &self.corners[..self.len as usize]
+    }
+}
+
+/// The point at `u` in the triangle or (planar) quadrilateral `poly`: barycentric,
+/// uniform in area, for a triangle; bilinear in the corners for a quadrilateral.
+pub fn point_in_polygon(poly: &[Vec3], u: Vec2) -> Vec3 {
+    match poly {
+        [a, b, c] => {
+            let q = u.x.sqrt();
+            *a + (*b - *a) * (q * (1.0 - u.y)) + (*c - *a) * (q * u.y)
+        }
+        [a, b, c, d] => (*a * (1.0 - u.x) + *b * u.x) * (1.0 - u.y) + (*d * (1.0 - u.x) + *c * u.x) * u.y,
+        _ => poly.first().copied().unwrap_or(Vec3::ZERO),
     }
 }
 

@@ -158,7 +158,7 @@ fn shoot_cells_tile_the_patch() {
     let s = tri_scene();
     let m = RadiosityMesh::build(&s, 0.3);
     for p in 0..2 {
-        let cells = m.shoot_cells(p, 16, |_| Vec2::splat(0.5));
+        let cells = m.shoot_cells(p, 16, |_| Vec2::splat(0.5), &[]);
         let area: f32 = cells
             .iter()
             .map(|c| {
@@ -173,6 +173,50 @@ fn shoot_cells_tile_the_patch() {
             "patch {p}: {area}"
         );
         assert!(cells.len() >= 9 && cells.len() <= 16, "{}", cells.len());
+    }
+}
+
+/// What a shooting cell carries is the mean of the field over the cell, the same
+/// wherever its point was jittered: for a linear field on a triangle the cells' power
+/// sums to the exact integral; on a merged plane of 10k triangles it is the same for
+/// two jitters and within 1 % of the integral.
+#[test]
+fn shoot_cells_carry_the_fields_mean_whatever_the_jitter() {
+    let linear = |m: &RadiosityMesh| -> Vec<Rgb> {
+        m.vertices
+            .iter()
+            .map(|v| Vec3::splat(1.0 + v.p.x + 2.0 * v.p.y))
+            .collect()
+    };
+    let power = |cells: &[ShootCell]| -> f32 {
+        cells
+            .iter()
+            .map(|c| {
+                let q = c.polygon();
+                let a: f32 = (1..q.len() - 1)
+                    .map(|k| 0.5 * (q[k] - q[0]).cross(q[k + 1] - q[0]).length())
+                    .sum();
+                c.value.x * a * c.weight
+            })
+            .sum()
+    };
+    // Triangle (0,0), (2,0), (0,2): area 2, centroid (2/3, 2/3): integral 2 * 3.
+    let s = tri_scene();
+    let m = RadiosityMesh::build(&s, 0.25);
+    let f = linear(&m);
+    let a = m.shoot_cells(0, 16, |_| Vec2::splat(0.1), &f);
+    let b = m.shoot_cells(0, 16, |_| Vec2::splat(0.9), &f);
+    assert!(a.iter().zip(&b).all(|(x, y)| x.value == y.value));
+    assert!((power(&a) - 6.0).abs() < 1e-3, "{}", power(&a));
+    // Plane 2 x 2: integral of 1 + x + 2y = 4 + 4 + 8 = 16.
+    let s = scene(vec![(split_square(2.0, 0.0, 71), Vec3::splat(0.5))], vec![], &[]);
+    let m = RadiosityMesh::build(&s, 0.25);
+    let f = linear(&m);
+    for count in [4, 64] {
+        let a = m.shoot_cells(0, count, |_| Vec2::splat(0.1), &f);
+        let b = m.shoot_cells(0, count, |i| Vec2::new(0.9, (i % 7) as f32 / 7.0), &f);
+        assert!(a.iter().zip(&b).all(|(x, y)| x.value == y.value && x.weight == y.weight));
+        assert!((power(&a) - 16.0).abs() < 0.16, "{count} cells: {}", power(&a));
     }
 }
 

@@ -27,8 +27,9 @@ use rayon::prelude::*;
 use crate::accel::Accel;
 use crate::emitters::{light_power, SampledLight};
 use crate::interaction::{ray_epsilon, shadow_ray};
-use crate::mesh::{MeshVertex, RadiosityMesh};
+use crate::mesh::{point_in_polygon, MeshVertex, RadiosityMesh};
 use crate::progress::Progress;
+use crate::sampling::{derive, uniform3, Stream};
 use crate::scene::{Light, Rgb, Scene};
 use crate::{Error, Result};
 
@@ -131,15 +132,17 @@ pub struct ListEntry {
 /// under asks for (its rays follow the source's solid angle and distance).
 struct Levels {
     sets: Vec<Vec<ShootPoint>>,
+    /// The shot's seed (receivers derive where they aim from it).
+    seed: u32,
     centre: Vec3,
     radius: f32,
     area: f32,
 }
 
 impl Levels {
-    /// The cells for a vertex at `x`: a source seen under solid angle w (estimated
-    /// as area / distance^2 from its bounding sphere, at most 2 pi) asks for
-    /// `w / 2pi * max` cells; the coarsest set with that many is taken.
+    /// The set a vertex at `x` starts with: a source seen under solid angle w
+    /// (estimated as area / distance^2 from its bounding sphere, at most 2 pi) asks
+    /// for `w / 2pi * max` cells; the coarsest set with that many is taken.
     fn for_vertex(&self, x: Vec3, max: u32) -> &[ShootPoint] {
         let d = (x - self.centre).length() - self.radius;
         let want = if d > 0.0 {
@@ -233,6 +236,9 @@ struct ShootPoint {
     len: u8,
     /// Radiosity the cell emits (for point lights: the intensity).
     radiosity: Rgb,
+    /// Every point of `poly` is on the surface: each receiver aims at a point of its
+    /// own in the cell, not at `p`.
+    flat: bool,
 }
 
 impl ShootPoint {
@@ -243,6 +249,7 @@ impl ShootPoint {
             poly: c.corners,
             len: c.len,
             radiosity: radiosity * c.weight,
+            flat: c.flat && c.len >= 3,
         }
     }
 
@@ -253,6 +260,7 @@ impl ShootPoint {
             poly: [Vec3::ZERO; 4],
             len: 0,
             radiosity: intensity,
+            flat: false,
         }
     }
 }
@@ -526,8 +534,10 @@ impl Solver<'_> {
         } else {
             (Vec3::ZERO, 0.0)
         };
+        let shot = self.stats.light_shots + self.stats.patch_shots;
         Levels {
             sets,
+            seed: crate::sampling::shot_seed(self.settings.seed, 1 << 63 | shot),
             centre,
             radius,
             area,
@@ -558,7 +568,7 @@ impl Solver<'_> {
                     let base = (p - first) as u32 * 1_000_003;
                     for c in self
                         .mesh
-                        .shoot_cells(p as u32, k, |i| jitter(base.wrapping_add(i)))
+                        .shoot_cells(p as u32, k, |i| jitter(base.wrapping_add(i)), &[])
                     {
                         pts.push(ShootPoint::from_cell(&c, radiance * std::f32::consts::PI));
                     }
@@ -572,9 +582,9 @@ impl Solver<'_> {
     fn patch_points(&self, p: u32, count: u32) -> Vec<ShootPoint> {
         let jitter = self.jitter((self.stats.patch_shots + 1) | u64::from(count) << 48);
         self.mesh
-            .shoot_cells(p, count, jitter)
+            .shoot_cells(p, count, jitter, &self.unshot)
             .iter()
-            .map(|c| ShootPoint::from_cell(c, c.interp.apply(&self.unshot)))
+            .map(|c| ShootPoint::from_cell(c, c.value))
             .filter(|sp| sp.radiosity.max_element() > 0.0)
             .collect()
     }
@@ -681,12 +691,19 @@ impl Solver<'_> {
     }
 
     /// Light from `points` at vertex `v`: (occluded, unoccluded) irradiance and rays.
-    fn gather(&self, points: &[ShootPoint], v: &MeshVertex, light: Option<&SampledLight>) -> (Rgb, Rgb, u64) {
+    /// `seed` (the vertex's own) chooses where in each flat cell its shadow ray aims.
+    fn gather(
+        &self,
+        points: &[ShootPoint],
+        v: &MeshVertex,
+        seed: u32,
+        light: Option<&SampledLight>,
+    ) -> (Rgb, Rgb, u64) {
         let mut occ = Vec3::ZERO;
         let mut unocc = Vec3::ZERO;
         let mut rays = 0;
         let x = v.q;
-        for sp in points {
+        for (k, sp) in points.iter().enumerate() {
             let d = sp.p - x;
             let r2 = d.length_squared();
             if !(r2 > 0.0) {
@@ -726,7 +743,13 @@ impl Solver<'_> {
             // The one shadow-ray rule of both passes: to a light point in space, or to a
             // point of the shooting cell's surface.
             let target_normal = if light.is_some() { None } else { Some(sp.n) };
-            let ray = shadow_ray(x, n, sp.p, target_normal);
+            let target = if sp.flat {
+                let [a, b, _] = uniform3(seed, k as u32);
+                point_in_polygon(&sp.poly[..sp.len as usize], Vec2::new(a, b))
+            } else {
+                sp.p
+            };
+            let ray = shadow_ray(x, n, target, target_normal);
             if !self.accel.occluded(&ray) {
                 occ += e;
             }
@@ -766,13 +789,15 @@ impl Solver<'_> {
         let per_vertex: Vec<(Rgb, Rgb, u64)> = mesh
             .vertices
             .par_iter()
+            .enumerate()
             .with_max_len(16)
-            .map(|v| {
+            .map(|(i, v)| {
                 if !receives(v.patch as usize) {
                     return (Vec3::ZERO, Vec3::ZERO, 0);
                 }
                 let rho = mesh.patches[v.patch as usize].reflectance;
-                let (o, u, r) = self.gather(levels.for_vertex(v.q, max), v, sampled.as_ref());
+                let seed = derive(levels.seed, Stream::Receiver(i as u32));
+                let (o, u, r) = self.gather(levels.for_vertex(v.q, max), v, seed, sampled.as_ref());
                 (o * rho, u * rho, r)
             })
             .collect();

@@ -21,7 +21,7 @@ use rayon::prelude::*;
 use crate::accel::{Accel, Ray};
 use crate::emitters::SampledLight;
 use crate::interaction::{offset_from, SurfacePoint};
-use crate::mesh::{Interp, RadiosityMesh};
+use crate::mesh::{point_in_polygon, Interp, RadiosityMesh};
 use crate::sampling::{cosine_direction, shot_seed, uniform3};
 use crate::scene::{Rgb, Scene};
 
@@ -78,11 +78,6 @@ pub struct Tracer<'a> {
 
 fn mean(c: Rgb) -> f32 {
     (c.x + c.y + c.z) / 3.0
-}
-
-fn triangle_point(t: &[Vec3; 3], u: f32, v: f32) -> Vec3 {
-    let q = u.sqrt();
-    t[0] + (t[1] - t[0]) * (q * (1.0 - v)) + (t[2] - t[0]) * (q * v)
 }
 
 fn pick(cdf: &[f64], x: f64) -> usize {
@@ -182,7 +177,7 @@ impl<'a> Tracer<'a> {
                 let [a, b, cc] = next();
                 let k = pick(&self.emit_cdf, f64::from(a));
                 let e = &self.emit[k];
-                let x = triangle_point(&e.corners, b, cc);
+                let x = point_in_polygon(&e.corners, Vec2::new(b, cc));
                 let n = (e.corners[1] - e.corners[0]).cross(e.corners[2] - e.corners[0]);
                 let area = 0.5 * n.length();
                 let n = n.normalize_or(Vec3::Z);
