@@ -761,3 +761,22 @@ fn a_spot_seen_through_a_mirror_lights_the_wall_as_in_mitsuba() {
         "{ours} vs {reference}"
     );
 }
+
+/// A reader that stops reading (`radtrace info scene.xml | head -1`) ends radtrace
+/// quietly with 141 (128 + SIGPIPE), as a shell reports for C tools: no panic.
+#[test]
+fn a_closed_pipe_ends_info_quietly() {
+    use std::process::Stdio;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_radtrace"))
+        .args(["info", &repo("scenes/cornell-box/cornell-box.xml")])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("runs radtrace");
+    // Close the reading end before radtrace writes.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("waits");
+    let err = stderr(&out);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(out.status.code(), Some(141), "{err}");
+}

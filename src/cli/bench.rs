@@ -26,7 +26,7 @@ pub(super) fn cmd_bench(a: BenchArgs) -> Result<()> {
         };
         let report = crate::experiments::bench::run(&scene, &plan, threads)?;
         if a.json {
-            println!(
+            say!(
                 "{}",
                 serde_json::to_string_pretty(&report).expect("report serialises")
             );

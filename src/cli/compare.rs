@@ -8,12 +8,12 @@ use crate::Result;
 pub(super) fn cmd_compare(a: CompareArgs) -> Result<()> {
     let c = crate::compare::compare_files(&a.reference, &a.test, a.error_map.as_deref())?;
     if a.json {
-        println!(
+        say!(
             "{}",
             json!({ "reference": a.reference, "test": a.test, "flip": c.flip, "rmse": c.rmse })
         );
     } else {
-        println!("mean FLIP {:.4}  RMSE {:.5}", c.flip, c.rmse);
+        say!("mean FLIP {:.4}  RMSE {:.5}", c.flip, c.rmse);
     }
     Ok(())
 }

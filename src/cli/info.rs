@@ -9,8 +9,8 @@ pub(super) fn cmd_info(a: InfoArgs) -> Result<()> {
     let scene = load_scene(&a.scene, false)?;
     let tris: usize = scene.shapes.iter().map(|s| s.mesh.triangle_count()).sum();
     let patches: usize = scene.shapes.iter().map(|s| s.mesh.patches.len()).sum();
-    println!("scene    {}", scene.path.display());
-    println!(
+    say!("scene    {}", scene.path.display());
+    say!(
         "shapes   {} ({} triangles, {} patches)",
         scene.shapes.len(),
         tris,
@@ -18,7 +18,7 @@ pub(super) fn cmd_info(a: InfoArgs) -> Result<()> {
     );
     for (i, s) in scene.shapes.iter().enumerate() {
         let b = &scene.bsdfs[s.bsdf as usize];
-        println!(
+        say!(
             "  [{i}] {:<32} {:>8} tris {:>6} patches  bsdf {}{}",
             s.name,
             s.mesh.triangle_count(),
@@ -27,28 +27,28 @@ pub(super) fn cmd_info(a: InfoArgs) -> Result<()> {
             if s.emitter.is_some() { "  (emitter)" } else { "" }
         );
     }
-    println!("lights   {}", scene.lights.len());
+    say!("lights   {}", scene.lights.len());
     for (i, l) in scene.lights.iter().enumerate() {
         match l {
             Light::Point { position, intensity } => {
-                println!("  [{i}] point at {position:.3} intensity {intensity:.3}")
+                say!("  [{i}] point at {position:.3} intensity {intensity:.3}")
             }
-            Light::Spot { position, direction, intensity, cutoff_angle, .. } => println!(
+            Light::Spot { position, direction, intensity, cutoff_angle, .. } => say!(
                 "  [{i}] spot at {position:.3} towards {direction:.3} intensity {intensity:.3} cutoff {:.1} deg",
                 cutoff_angle.to_degrees()
             ),
-            Light::Area { shape, radiance } => println!(
+            Light::Area { shape, radiance } => say!(
                 "  [{i}] area on '{}' (area {:.4}) radiance {radiance:.3}",
                 scene.shapes[*shape as usize].name,
                 scene.shapes[*shape as usize].mesh.area()
             ),
         }
     }
-    println!("views    {}", scene.sensors.len());
+    say!("views    {}", scene.sensors.len());
     for (i, s) in scene.sensors.iter().enumerate() {
         let o = s.to_world.transform_point3(glam::Vec3::ZERO);
         let d = s.to_world.transform_vector3(glam::Vec3::Z);
-        println!(
+        say!(
             "  [{i}] {}x{} fov {:.1} ({:?}) from {o:.3} looking {d:.3}{}",
             s.width,
             s.height,

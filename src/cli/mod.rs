@@ -2,6 +2,18 @@
 //! runs it; this module holds what the commands share (scene loading, progress bars,
 //! the statistics JSON).
 
+/// `println!` for the commands' output: a reader that stops reading (`radtrace info
+/// scene.xml | head`) ends the process quietly, as it would a C tool, instead of a
+/// panic; any other failure to write is one line and exit code 1.
+macro_rules! say {
+    () => {
+        $crate::cli::say(format_args!(""))
+    };
+    ($($t:tt)*) => {
+        $crate::cli::say(format_args!($($t)*))
+    };
+}
+
 mod args;
 mod bench;
 mod compare;
@@ -27,6 +39,20 @@ use crate::stats::Timings;
 use crate::{Error, Result};
 
 pub use args::*;
+
+/// Writes one line of the commands' output to standard output (see `say!`).
+pub(crate) fn say(args: std::fmt::Arguments) {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out.write_fmt(args).and_then(|()| out.write_all(b"\n")) {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            // 141 = 128 + SIGPIPE, what a shell reports for a tool the pipe ended.
+            crate::io::exit_after_writes(141)
+        }
+        eprintln!("radtrace: error: writing to standard output: {e}");
+        crate::io::exit_after_writes(1)
+    }
+}
 
 /// Runs the command line; returns the process exit code.
 pub fn main() -> i32 {

@@ -157,7 +157,7 @@ pub(super) fn cmd_render(a: RenderArgs) -> Result<()> {
                     .into_iter()
                     .map(|r| r.to_vec())
                     .collect();
-                println!();
+                say!();
                 print!(
                     "{}",
                     crate::stats::format_table(

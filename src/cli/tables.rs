@@ -123,7 +123,7 @@ fn print_tables(result: &Tables, plan: &TablesPlan) {
         .iter()
         .map(|v| format!("view {} = {}: {}x{}", v.view, letter(v.view), v.width, v.height))
         .collect();
-    println!(
+    say!(
         "{} (adaptive to level {}, contrast {}, seed {}; {})\n",
         result.scene.display(),
         plan.max_level,
@@ -147,7 +147,7 @@ fn print_tables(result: &Tables, plan: &TablesPlan) {
             &t1
         )
     );
-    println!();
+    say!();
     let t2: Vec<Vec<String>> = result
         .table2
         .iter()
@@ -164,7 +164,7 @@ fn print_tables(result: &Tables, plan: &TablesPlan) {
         })
         .collect();
     print!("{}", format_table("Table 2. Shadow image buffer results (norm with SIB; 'all': saved against the fully sampled picture)", &TABLE2_HEADERS, &t2));
-    println!();
+    say!();
     let t3: Vec<Vec<String>> = result.table3.iter().map(table1_cells).collect();
     print!(
         "{}",
@@ -186,7 +186,7 @@ fn print_tables(result: &Tables, plan: &TablesPlan) {
         .iter()
         .map(|v| format!("{}: {:.4}", letter(v.view), v.norm_sib.flip_vs_norm))
         .collect();
-    println!(
+    say!(
         "\nFLIP of norm with SIB vs fully sampled: {}",
         sib_flips.join(", ")
     );

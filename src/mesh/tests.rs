@@ -215,7 +215,10 @@ fn shoot_cells_carry_the_fields_mean_whatever_the_jitter() {
     for count in [4, 64] {
         let a = m.shoot_cells(0, count, |_| Vec2::splat(0.1), &f);
         let b = m.shoot_cells(0, count, |i| Vec2::new(0.9, (i % 7) as f32 / 7.0), &f);
-        assert!(a.iter().zip(&b).all(|(x, y)| x.value == y.value && x.weight == y.weight));
+        assert!(a
+            .iter()
+            .zip(&b)
+            .all(|(x, y)| x.value == y.value && x.weight == y.weight));
         assert!((power(&a) - 16.0).abs() < 0.16, "{count} cells: {}", power(&a));
     }
 }
