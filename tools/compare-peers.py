@@ -16,8 +16,8 @@
    (the whole process, solve included) with its FLIP against the same reference; if
    radtrace's FLIP is worse it is re-run with more effort until it is not. The figure is
    Mitsuba's time / radtrace's time (issue 6: at least 5 on the Cornell box). Default
-   scenes: the Cornell box and the conference room; radtrace gets a per-scene pass-1
-   budget where its defaults would not finish (RADTRACE_EFFORT), and Mitsuba the -D
+   scenes: the Cornell box and the conference room; a scene may get a ladder of its own
+   (RADTRACE_EFFORT, empty now), and Mitsuba the -D
    parameters it needs (the paper room's teapot as an OBJ: mitsuba_defines).
 
 Ratios, not absolute times, are the figures: the machine is shared and noisy. Each
@@ -343,19 +343,10 @@ def mitsuba_defines(exe: str, scene: Path, work: Path) -> dict:
 # radtrace settings tried in turn until its FLIP is no worse than Mitsuba's: the
 # default first, then more effort on the radiosity (pass 1) and the image (pass 2).
 EFFORT = [[], ["--shoot-samples", "128"], ["--shoot-samples", "128", "--max-level", "3"]]
-# Scenes (by file stem) where that ladder would not finish. The conference room
-# (331,179 triangles): scenes/README.md measured 16 cells and 40 shots at 167 s on 2
-# cores, and estimated days for the default pass 1 (64 cells per shot, down to 1 %
-# unshot, up to 20,000 shots), both with one patch per polygon, before pass 1 merged
-# coplanar and small polygons and gained photons and --solve-time; re-measure before
-# trusting these budgets. More shots are the next step.
-RADTRACE_EFFORT = {
-    "conference": [
-        ["--shoot-samples", "16", "--max-shots", "40"],
-        ["--shoot-samples", "16", "--max-shots", "160"],
-        ["--shoot-samples", "16", "--max-shots", "160", "--max-level", "3"],
-    ],
-}
+# Scenes (by file stem) with a ladder of their own. None now: since pass 1 merges
+# polygons into lattice patches and carries the tail by photons, the conference room
+# (331,179 triangles) renders with the defaults in about 40 s on 2 cores.
+RADTRACE_EFFORT: dict = {}
 
 
 def reference_key(scene: Path, defines: dict) -> str:
