@@ -175,3 +175,29 @@ pub fn open_scene() -> Scene {
         .push(looking(v(0.0, -1.5, 1.5), v(0.0, 0.0, 0.2), 70.0, 48, 48));
     s
 }
+
+/// A square `[0, s]^2` at height `z` facing +z, cut into `k x k` cells of two
+/// triangles each, every triangle its own scene patch.
+pub fn split_square(s: f32, z: f32, k: u32) -> crate::geometry::TriMesh {
+    let mut m = crate::geometry::TriMesh::default();
+    for j in 0..=k {
+        for i in 0..=k {
+            m.positions
+                .push(Vec3::new(s * i as f32 / k as f32, s * j as f32 / k as f32, z));
+        }
+    }
+    let at = |i: u32, j: u32| j * (k + 1) + i;
+    for j in 0..k {
+        for i in 0..k {
+            for t in [
+                [at(i, j), at(i + 1, j), at(i + 1, j + 1)],
+                [at(i, j), at(i + 1, j + 1), at(i, j + 1)],
+            ] {
+                m.tri_patch.push(m.patches.len() as u32);
+                m.patches.push(crate::geometry::Patch::Polygon(t.to_vec()));
+                m.indices.push(t);
+            }
+        }
+    }
+    m
+}

@@ -734,21 +734,27 @@ impl RadiosityMesh {
             // Points of the field's mean: about two per element along each side.
             let q = (2 * grid.n.max(grid.m)).div_ceil(side).clamp(1, 16);
             let mut push = |corners: &[(f32, f32)], idx: u32| {
+                let tri = corners.len() == 3;
+                // Local coordinates in the cell (barycentrics of corners 1 and 2 of a
+                // triangle; [0, 1]^2 over a parallelogram) to the grid's parameters.
+                let at = |a: f32, b: f32| {
+                    let c = corners;
+                    if tri {
+                        (
+                            c[0].0 + (c[1].0 - c[0].0) * a + (c[2].0 - c[0].0) * b,
+                            c[0].1 + (c[1].1 - c[0].1) * a + (c[2].1 - c[0].1) * b,
+                        )
+                    } else {
+                        (c[0].0 + (c[1].0 - c[0].0) * a, c[0].1 + (c[3].1 - c[0].1) * b)
+                    }
+                };
+                // Uniform point in the cell.
                 let r = u(base + idx);
-                // Uniform point in the cell (triangle or parallelogram in parameters).
-                let (s, t) = if corners.len() == 3 {
+                let (s, t) = if tri {
                     let q = r.x.sqrt();
-                    let (b1, b2) = (q * (1.0 - r.y), q * r.y);
-                    let (c0, c1, c2) = (corners[0], corners[1], corners[2]);
-                    (
-                        c0.0 + (c1.0 - c0.0) * b1 + (c2.0 - c0.0) * b2,
-                        c0.1 + (c1.1 - c0.1) * b1 + (c2.1 - c0.1) * b2,
-                    )
+                    at(q * (1.0 - r.y), q * r.y)
                 } else {
-                    (
-                        corners[0].0 + (corners[1].0 - corners[0].0) * r.x,
-                        corners[0].1 + (corners[3].1 - corners[0].1) * r.y,
-                    )
+                    at(r.x, r.y)
                 };
                 let (pos, n) = grid.eval(s, t);
                 let mut poly = [Vec3::ZERO; 4];
@@ -758,19 +764,8 @@ impl RadiosityMesh {
                 let value = if field.is_empty() {
                     Vec3::ZERO
                 } else {
-                    cell_mean(q, corners.len() == 3, |a, b| {
-                        let (s, t) = if corners.len() == 3 {
-                            let (c0, c1, c2) = (corners[0], corners[1], corners[2]);
-                            (
-                                c0.0 + (c1.0 - c0.0) * a + (c2.0 - c0.0) * b,
-                                c0.1 + (c1.1 - c0.1) * a + (c2.1 - c0.1) * b,
-                            )
-                        } else {
-                            (
-                                corners[0].0 + (corners[1].0 - corners[0].0) * a,
-                                corners[0].1 + (corners[3].1 - corners[0].1) * b,
-                            )
-                        };
+                    cell_mean(q, tri, |a, b| {
+                        let (s, t) = at(a, b);
                         grid.interp(s, t).apply(field)
                     })
                 };

@@ -1,6 +1,6 @@
 use super::*;
 use crate::accel::{Accel, Bvh, Ray};
-use crate::testutil::{quad, scene};
+use crate::testutil::{quad, scene, split_square};
 
 fn tri_scene() -> Scene {
     let v = Vec3::new;
@@ -239,32 +239,6 @@ fn twosided_patches_get_a_back_twin_with_its_own_vertices() {
     );
     assert_eq!(a.p, b.p);
     assert_eq!(a.n, -b.n);
-}
-
-/// A square `[0, s]^2` at height `z` facing +z, cut into `k x k` cells of two
-/// triangles each, every triangle its own scene patch.
-fn split_square(s: f32, z: f32, k: u32) -> crate::geometry::TriMesh {
-    let mut m = crate::geometry::TriMesh::default();
-    for j in 0..=k {
-        for i in 0..=k {
-            m.positions
-                .push(Vec3::new(s * i as f32 / k as f32, s * j as f32 / k as f32, z));
-        }
-    }
-    let at = |i: u32, j: u32| j * (k + 1) + i;
-    for j in 0..k {
-        for i in 0..k {
-            for t in [
-                [at(i, j), at(i + 1, j), at(i + 1, j + 1)],
-                [at(i, j), at(i + 1, j + 1), at(i, j + 1)],
-            ] {
-                m.tri_patch.push(m.patches.len() as u32);
-                m.patches.push(Patch::Polygon(t.to_vec()));
-                m.indices.push(t);
-            }
-        }
-    }
-    m
 }
 
 #[test]

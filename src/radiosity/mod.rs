@@ -1188,29 +1188,10 @@ mod tests {
     /// patch): every vertex's radiosity is rho I h / r^3.
     #[test]
     fn point_light_over_a_merged_plane_matches_the_closed_form() {
-        let mut plane = crate::geometry::TriMesh::default();
-        let k = 40u32;
-        for j in 0..=k {
-            for i in 0..=k {
-                plane.positions.push(Vec3::new(
-                    4.0 * i as f32 / k as f32 - 2.0,
-                    4.0 * j as f32 / k as f32 - 2.0,
-                    0.0,
-                ));
-            }
-        }
-        let at = |i: u32, j: u32| j * (k + 1) + i;
-        for j in 0..k {
-            for i in 0..k {
-                for t in [
-                    [at(i, j), at(i + 1, j), at(i + 1, j + 1)],
-                    [at(i, j), at(i + 1, j + 1), at(i, j + 1)],
-                ] {
-                    plane.tri_patch.push(plane.patches.len() as u32);
-                    plane.patches.push(crate::geometry::Patch::Polygon(t.to_vec()));
-                    plane.indices.push(t);
-                }
-            }
+        // A 4 x 4 plane centred on the origin, 40 x 40 cells of two triangles.
+        let mut plane = crate::testutil::split_square(4.0, 0.0, 40);
+        for p in &mut plane.positions {
+            *p -= Vec3::new(2.0, 2.0, 0.0);
         }
         let (h, i0, rho) = (1.5f32, 2.0f32, 0.6f32);
         let light = Light::Point {
