@@ -27,7 +27,7 @@ use rayon::prelude::*;
 use crate::camera::Camera;
 use crate::emitters::light_power;
 use crate::emitters::{AreaEmitter, SampledLight};
-use crate::geometry::triangle_solid_angle;
+use crate::geometry::Subtense;
 use crate::radiosity::{ListEntry, Solution, SourceId};
 use crate::scene::{Light, Rgb, Scene};
 use crate::{Error, Result};
@@ -300,14 +300,6 @@ fn mean(c: Rgb) -> f32 {
     (c.x + c.y + c.z) / 3.0
 }
 
-/// Solid angle under which `x` sees the front of a set of triangles.
-fn solid_angle(x: Vec3, tris: &[[Vec3; 3]]) -> f32 {
-    tris.iter()
-        .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]).dot(x - t[0]) > 0.0)
-        .map(|t| triangle_solid_angle(x, t))
-        .sum()
-}
-
 /// The triangles of a source (empty for point and spot lights); a radiant patch as its
 /// outline (the solid angle of its elements together).
 fn source_triangles(scene: &Scene, sol: &Solution, s: SourceId) -> Vec<[Vec3; 3]> {
@@ -350,7 +342,7 @@ pub struct Judge<'a> {
 
 /// The five criteria of Sect. 3 for the listed source `entry` on patch `p`; `tris`
 /// are the source's triangles (empty for point and spot lights).
-pub fn judge(j: &Judge, p: u32, entry: &ListEntry, tris: &[[Vec3; 3]]) -> Criteria {
+pub fn judge(j: &Judge, p: u32, entry: &ListEntry, tris: &Subtense) -> Criteria {
     let (scene, sol, total, settings, view) = (j.scene, j.sol, j.total, j.settings, j.view);
     let mp = &sol.mesh.patches[p as usize];
     let first = mp.first_vertex as usize;
@@ -403,7 +395,7 @@ pub fn judge(j: &Judge, p: u32, entry: &ListEntry, tris: &[[Vec3; 3]]) -> Criter
     } else {
         let (mut sum, mut area, mut max) = (0.0f32, 0.0f32, 0.0f32);
         for v in verts {
-            let w = solid_angle(v.q, tris);
+            let w = tris.from(v.q);
             sum += w * v.area;
             area += v.area;
             max = max.max(w);
@@ -533,10 +525,10 @@ pub(crate) fn select_unchecked<'a>(
                 .collect()
         }
         Method::Local => {
-            let mut tris: BTreeMap<SourceId, Vec<[Vec3; 3]>> = BTreeMap::new();
+            let mut tris: BTreeMap<SourceId, Subtense> = BTreeMap::new();
             for e in sol.lists.iter().flatten() {
                 tris.entry(e.source)
-                    .or_insert_with(|| source_triangles(scene, sol, e.source));
+                    .or_insert_with(|| Subtense::new(source_triangles(scene, sol, e.source)));
             }
             let judge_ctx = Judge {
                 scene,

@@ -8,12 +8,14 @@ pub mod bezier;
 pub mod obj;
 pub mod ply;
 pub mod shapes;
+mod solid_angle;
 mod text;
 mod trimesh_build;
 
 use glam::{Mat3, Mat4, Vec2, Vec3};
 
 pub use bezier::BezierPatch;
+pub use solid_angle::{triangle_solid_angle, Subtense};
 
 /// What a radiosity patch is: an input polygon, or a parametric piece of a Bezier patch.
 #[derive(Debug, Clone, PartialEq)]
@@ -224,13 +226,4 @@ impl TriMesh {
         }
         Ok(())
     }
-}
-
-/// Solid angle of triangle `t` seen from `x` (Van Oosterom & Strackee 1983).
-pub fn triangle_solid_angle(x: Vec3, t: &[Vec3; 3]) -> f32 {
-    let (a, b, c) = (t[0] - x, t[1] - x, t[2] - x);
-    let (la, lb, lc) = (a.length(), b.length(), c.length());
-    let num = a.dot(b.cross(c)).abs();
-    let den = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
-    2.0 * num.atan2(den)
 }

@@ -4,6 +4,14 @@ use crate::radiosity::{solve, SolveSettings};
 use crate::testutil::{room, scene, square, v};
 use std::f32::consts::PI;
 
+/// Solid angle of the fronts of `tris` from `x`, triangle by triangle.
+fn solid_angle(x: Vec3, tris: &[[Vec3; 3]]) -> f32 {
+    tris.iter()
+        .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]).dot(x - t[0]) > 0.0)
+        .map(|t| crate::geometry::triangle_solid_angle(x, t))
+        .sum()
+}
+
 /// Pass 1 settings of the selection and rendering tests.
 pub(crate) fn solve_settings(mesh_size: f32, n: u32) -> SolveSettings {
     SolveSettings {
@@ -133,10 +141,10 @@ fn solid_angles_match_the_closed_form_and_set_the_ray_count() {
     let sq = [v(-a, -a, d), v(a, -a, d), v(a, a, d), v(-a, a, d)];
     let tris = [[sq[0], sq[2], sq[1]], [sq[0], sq[3], sq[2]]];
     let expect = 4.0 * (a * a / (a * a + d * d)).asin();
-    let got = solid_angle(Vec3::ZERO, &tris);
+    let got = Subtense::new(tris.to_vec()).from(Vec3::ZERO);
     assert!((got - expect).abs() < 1e-5 * expect, "{got} vs {expect}");
     // Seen from behind: nothing (the source emits on its front only).
-    assert_eq!(solid_angle(v(0.0, 0.0, 4.0), &tris), 0.0);
+    assert_eq!(Subtense::new(tris.to_vec()).from(v(0.0, 0.0, 4.0)), 0.0);
     // Rays: Omega / 2pi x hemisphere rays, between 1 and area_samples.
     let s = criteria_scene();
     let bvh = Bvh::build(&s);
