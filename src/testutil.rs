@@ -179,11 +179,18 @@ pub fn open_scene() -> Scene {
 /// A square `[0, s]^2` at height `z` facing +z, cut into `k x k` cells of two
 /// triangles each, every triangle its own scene patch.
 pub fn split_square(s: f32, z: f32, k: u32) -> crate::geometry::TriMesh {
+    split_quad([v(0.0, 0.0, z), v(s, 0.0, z), v(s, s, z), v(0.0, s, z)], k)
+}
+
+/// The parallelogram with corners `c` (counter-clockwise seen from the front) cut
+/// into `k x k` cells of two triangles each, every triangle its own scene patch (so
+/// the radiosity mesh merges them back into one).
+pub fn split_quad(c: [Vec3; 4], k: u32) -> crate::geometry::TriMesh {
     let mut m = crate::geometry::TriMesh::default();
+    let (du, dv) = ((c[1] - c[0]) / k as f32, (c[3] - c[0]) / k as f32);
     for j in 0..=k {
         for i in 0..=k {
-            m.positions
-                .push(Vec3::new(s * i as f32 / k as f32, s * j as f32 / k as f32, z));
+            m.positions.push(c[0] + du * i as f32 + dv * j as f32);
         }
     }
     let at = |i: u32, j: u32| j * (k + 1) + i;

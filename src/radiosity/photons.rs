@@ -86,6 +86,28 @@ fn pick(cdf: &[f64], x: f64) -> usize {
         .min(cdf.len().saturating_sub(1))
 }
 
+/// Triangle `t` cut into k x k similar pieces, k the least that makes every edge at
+/// most `size`.
+fn pieces(t: &[Vec3; 3], size: f32) -> impl Iterator<Item = [Vec3; 3]> + '_ {
+    let longest = (0..3)
+        .map(|i| (t[(i + 1) % 3] - t[i]).length())
+        .fold(0.0, f32::max);
+    let k = if size > 0.0 {
+        ((longest / size).ceil() as u32).clamp(1, 256)
+    } else {
+        1
+    };
+    let (e1, e2) = ((t[1] - t[0]) / k as f32, (t[2] - t[0]) / k as f32);
+    let at = move |i: u32, j: u32| t[0] + e1 * i as f32 + e2 * j as f32;
+    (0..k).flat_map(move |j| {
+        (0..k - j).flat_map(move |i| {
+            let up = [at(i, j), at(i + 1, j), at(i, j + 1)];
+            let down = (i + j + 1 < k).then(|| [at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
+            std::iter::once(up).chain(down)
+        })
+    })
+}
+
 impl<'a> Tracer<'a> {
     /// The radiant pieces of every patch with unshot light: element triangles (the
     /// exact surface for merged patches).
@@ -117,14 +139,22 @@ impl<'a> Tracer<'a> {
             match mp.grids.first().map(|g| &g.domain) {
                 Some(crate::mesh::Domain::Lattice(l)) if mp.grids.len() == 1 => {
                     let base = mp.grids[0].first_vertex;
-                    for t in &l.surface {
-                        let c = (t[0] + t[1] + t[2]) / 3.0;
-                        // Bound the density by the largest corner of the cell.
-                        let w = l.interp(base, c);
-                        let hi = (0..4)
+                    // The density is bounded by the largest vertex of the cells at a
+                    // piece's corners and centre; pieces are cut no bigger than a cell,
+                    // so no lit cell inside a large input triangle is left without
+                    // photons (that light would be lost).
+                    let hi_at = |x: Vec3| {
+                        let w = l.interp(base, x);
+                        (0..4)
                             .map(|k| mean(unshot[w.vertices[k] as usize]))
-                            .fold(0.0, f32::max);
-                        push(*t, None, hi);
+                            .fold(0.0, f32::max)
+                    };
+                    for t in &l.surface {
+                        for piece in pieces(t, l.cell) {
+                            let c = (piece[0] + piece[1] + piece[2]) / 3.0;
+                            let hi = piece.iter().map(|&x| hi_at(x)).fold(hi_at(c), f32::max);
+                            push(piece, None, hi);
+                        }
                     }
                 }
                 _ => {
@@ -344,4 +374,48 @@ impl<'a> Tracer<'a> {
 /// Whether any surface of the scene reflects like a mirror.
 pub fn has_mirrors(scene: &Scene) -> bool {
     scene.bsdfs.iter().any(|b| b.kind.has_mirror())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::{scene, split_quad, v};
+
+    /// Photons leave a merged patch wherever it holds unshot light, even in a corner of
+    /// a large input triangle far from its centre: the density bound summed over the
+    /// pieces (area x largest nearby vertex) is at least the patch's unshot power.
+    #[test]
+    fn photons_leave_every_lit_cell_of_a_large_triangle() {
+        // A 4 x 4 square of two triangles: one lattice patch of 0.25 cells.
+        let c = [
+            v(0.0, 0.0, 0.0),
+            v(4.0, 0.0, 0.0),
+            v(4.0, 4.0, 0.0),
+            v(0.0, 4.0, 0.0),
+        ];
+        let s = scene(vec![(split_quad(c, 1), Vec3::splat(0.5))], vec![], &[]);
+        let mesh = RadiosityMesh::build(&s, 0.25);
+        assert!(matches!(
+            mesh.patches[0].grids[0].domain,
+            crate::mesh::Domain::Lattice(_)
+        ));
+        // Unshot light only at the vertex nearest the corner (4, 0).
+        let corner = (0..mesh.vertices.len())
+            .min_by(|&a, &b| {
+                let d = |i: usize| (mesh.vertices[i].p - v(4.0, 0.0, 0.0)).length();
+                d(a).total_cmp(&d(b))
+            })
+            .unwrap();
+        let mut unshot = vec![Vec3::ZERO; mesh.vertices.len()];
+        unshot[corner] = Vec3::ONE;
+        let power = f64::from(mesh.vertices[corner].area);
+        let (emit, cdf) = Tracer::emitters(&mesh, &unshot);
+        let bound = cdf.last().copied().unwrap_or(0.0);
+        assert!(
+            !emit.is_empty() && bound >= power,
+            "bound {bound} < power {power}"
+        );
+        // And the bound stays local: pieces near the corner only (not the whole square).
+        assert!(bound < 8.0 * power, "bound {bound} against {power}");
+    }
 }
