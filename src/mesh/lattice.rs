@@ -114,6 +114,94 @@ fn overlaps(t: [Vec2; 3], lo: Vec2, side: f32) -> bool {
 }
 
 impl Lattice {
+    /// The cluster cut into about `count` blocks of lattice cells for shooting, when it
+    /// is planar: each block a rectangle of the lattice plane, cut to the cluster's
+    /// bounds and lifted onto its plane, counter-clockwise seen from the front; only
+    /// blocks holding a used cell. So the cells tile the surface, and a receiver near
+    /// any part of it sees that part (a sample of the cluster's triangles would leave
+    /// gaps next to it). `None` for a cluster that is not planar.
+    pub fn blocks(&self, count: u32) -> Option<Vec<[Vec3; 4]>> {
+        let first = self.surface.first()?[0];
+        let normal: Vec3 = self
+            .surface
+            .iter()
+            .map(tri_normal)
+            .sum::<Vec3>()
+            .normalize_or_zero();
+        let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
+        let mut extent = 0.0f32;
+        for p in self.surface.iter().flatten() {
+            let x = project(self.axis, *p);
+            lo = lo.min(x);
+            hi = hi.max(x);
+            extent = extent.max((*p - first).abs().max_element());
+        }
+        let d = normal.dot(first);
+        let along = normal[self.axis as usize];
+        // Coplanar within the rounding of the positions (as the clustering allows).
+        let tol = 1e-4 * extent.max(first.abs().max_element());
+        if along.abs() < 0.5
+            || self
+                .surface
+                .iter()
+                .flatten()
+                .any(|p| (normal.dot(*p) - d).abs() > tol)
+        {
+            return None;
+        }
+        // A point of the lattice plane lifted onto the cluster's plane.
+        let lift = |x: Vec2| {
+            let mut p = Vec3::ZERO;
+            let (u, v) = match self.axis {
+                0 => (1, 2),
+                1 => (2, 0),
+                _ => (0, 1),
+            };
+            p[u] = x.x;
+            p[v] = x.y;
+            p[self.axis as usize] = (d - normal[u] * x.x - normal[v] * x.y) / along;
+            p
+        };
+        // Square blocks of `side` cells, the smallest side that makes at most `count`.
+        let blocks_of = |side: u32| {
+            let mut b: Vec<(u32, u32)> = self
+                .cells
+                .iter()
+                .map(|&c| ((c % self.n) / side, (c / self.n) / side))
+                .collect();
+            b.sort_unstable_by_key(|&(bi, bj)| (bj, bi));
+            b.dedup();
+            b
+        };
+        let used = self.cells.len().max(1) as f32;
+        let mut side = ((used / count.max(1) as f32).sqrt().ceil() as u32).max(1);
+        let mut blocks = blocks_of(side);
+        while blocks.len() > count.max(1) as usize {
+            let grow = (blocks.len() as f32 / count.max(1) as f32).sqrt();
+            side = ((side as f32 * grow).ceil() as u32).max(side + 1);
+            blocks = blocks_of(side);
+        }
+        let flip = along < 0.0;
+        Some(
+            blocks
+                .into_iter()
+                .map(|(bi, bj)| {
+                    let a = self.origin + Vec2::new((bi * side) as f32, (bj * side) as f32) * self.cell;
+                    let b = a + Vec2::splat((side as f32) * self.cell);
+                    let (a, b) = (a.max(lo), b.min(hi));
+                    let quad = [a, Vec2::new(b.x, a.y), b, Vec2::new(a.x, b.y)].map(lift);
+                    // Counter-clockwise in (u, v) faces +axis: reversed for a cluster
+                    // facing the other way.
+                    if flip {
+                        [quad[0], quad[3], quad[2], quad[1]]
+                    } else {
+                        quad
+                    }
+                })
+                .collect(),
+        )
+    }
+
     fn node_key(&self, i: u32, j: u32) -> u32 {
         j * (self.n + 1) + i
     }
@@ -267,7 +355,7 @@ pub fn build(surface: Vec<[Vec3; 3]>, cell: f32) -> (Lattice, Vec<LatticeVertex>
     lat.nodes = keys.iter().enumerate().map(|(k, &key)| (key, k as u32)).collect();
 
     // Each vertex at the nearest surface point (nearest in the lattice plane), with
-    // that triangle's normal; the receiving point a hair towards the triangle's centre.
+    // that triangle's normal; the receiving point a little towards the triangle's centre.
     let mut best: Vec<(f32, Vec3, Vec3, Vec3)> =
         vec![(f32::INFINITY, Vec3::ZERO, Vec3::Z, Vec3::ZERO); keys.len()];
     for (t, f) in lat.surface.iter().zip(&flat) {
@@ -296,7 +384,10 @@ pub fn build(surface: Vec<[Vec3; 3]>, cell: f32) -> (Lattice, Vec<LatticeVertex>
         .map(|&(_, p, n, c)| LatticeVertex {
             p,
             n,
-            q: p + (c - p) * super::NUDGE,
+            // A twentieth of a cell (at most half-way to the centre): from a point
+            // nearer a corner of two walls than the ray offset, shadow rays would meet
+            // the other wall at their start.
+            q: p + (c - p) * (0.05 * cell / (c - p).length().max(1e-30)).min(0.5),
             area: 0.0,
         })
         .collect();

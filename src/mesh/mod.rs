@@ -725,7 +725,11 @@ impl RadiosityMesh {
                         l.interp(base, q).apply(field)
                     }
                 };
-                out.extend(surface_cells(&l.surface, count, &u, self.mesh_size, value));
+                if let Some(blocks) = l.blocks(count) {
+                    out.extend(block_cells(&blocks, p.area, &u, self.mesh_size, value));
+                } else {
+                    out.extend(surface_cells(&l.surface, count, &u, self.mesh_size, value));
+                }
                 continue;
             }
             let k = (count as f32 * grid.area / total).max(1.0);
@@ -924,6 +928,36 @@ pub fn surface_cells<'a>(
             len: 3,
             p,
             n: n.normalize_or(Vec3::Z),
+            value,
+            weight,
+            flat: true,
+        }
+    })
+}
+
+/// Shooting cells on the planar quadrilaterals `blocks` that tile a surface of area
+/// `area`, each with a point jittered by `u` and the mean of `value` over it (points
+/// about half of `mesh_size` apart); their weight makes the blocks' power that of the
+/// surface where the blocks' outline overreaches it.
+fn block_cells<'a>(
+    blocks: &'a [[Vec3; 4]],
+    area: f32,
+    u: &'a impl Fn(u32) -> Vec2,
+    mesh_size: f32,
+    value: impl Fn(Vec3) -> Rgb + 'a,
+) -> impl Iterator<Item = ShootCell> + 'a {
+    let quad_area = |b: &[Vec3; 4]| 0.5 * (b[2] - b[0]).cross(b[3] - b[1]).length();
+    let covered: f32 = blocks.iter().map(quad_area).sum();
+    let weight = if covered > 0.0 { area / covered } else { 1.0 };
+    blocks.iter().enumerate().map(move |(k, b)| {
+        let side = quad_area(b).sqrt();
+        let q = ((2.0 * side / mesh_size.max(1e-30)).ceil() as u32).clamp(1, 16);
+        let value = cell_mean(q, false, |s, t| value(point_in_polygon(b, Vec2::new(s, t))));
+        ShootCell {
+            corners: *b,
+            len: 4,
+            p: point_in_polygon(b, u(k as u32)),
+            n: (b[2] - b[0]).cross(b[3] - b[1]).normalize_or(Vec3::Z),
             value,
             weight,
             flat: true,

@@ -1,6 +1,6 @@
 use super::*;
 use crate::accel::{Accel, Bvh, Ray};
-use crate::testutil::{quad, scene, split_square};
+use crate::testutil::{quad, scene, split_quad, split_square, v};
 
 fn tri_scene() -> Scene {
     let v = Vec3::new;
@@ -323,4 +323,90 @@ fn a_mirror_keeps_no_radiosity() {
     let s = crate::testutil::scene_with(vec![(floor, mirror)], vec![], &[]);
     let m = RadiosityMesh::build(&s, 0.1);
     assert_eq!(m.vertices.len(), 4, "one element, whatever the mesh size");
+}
+
+#[test]
+fn a_planar_lattice_shoots_from_blocks_that_tile_it_and_face_its_front() {
+    // A 3 x 2 parallelogram tilted out of every axis plane, facing down-ish, cut into
+    // 2 x 30 x 30 triangles: one lattice patch.
+    let (o, a, b) = (v(0.5, 0.2, 1.0), v(3.0, 0.0, 0.6), v(0.0, 2.0, -0.3));
+    let c = [o, o + b, o + a + b, o + a];
+    let front = (c[1] - c[0]).cross(c[3] - c[0]).normalize();
+    let s = scene(vec![(split_quad(c, 30), Vec3::splat(0.5))], vec![], &[]);
+    let m = RadiosityMesh::build(&s, 0.2);
+    assert_eq!(m.patches.len(), 1);
+    let Domain::Lattice(l) = &m.patches[0].grids[0].domain else {
+        panic!("not a lattice")
+    };
+    let area = a.cross(b).length();
+    for count in [1, 16, 64] {
+        let blocks = l.blocks(count).expect("planar");
+        assert!(
+            !blocks.is_empty() && blocks.len() <= count as usize,
+            "{count}: {}",
+            blocks.len()
+        );
+        let mut sum = 0.0;
+        for q in &blocks {
+            let n = (q[2] - q[0]).cross(q[3] - q[1]);
+            assert!(n.normalize().dot(front) > 0.9999, "{count}: a block faces {n}");
+            // Every corner on the plane, within the parallelogram's bounding box.
+            for p in q {
+                assert!((*p - o).dot(front).abs() < 1e-4, "{p} off the plane");
+            }
+            sum += 0.5 * n.length();
+        }
+        // The blocks cover the parallelogram (and, cut to its bounding box in the
+        // lattice plane, no more than that box).
+        assert!(sum >= area * 0.999, "{count}: {sum} < {area}");
+        assert!(sum <= area * 1.3, "{count}: {sum} against {area}");
+        // The cells carry the surface's power: weight x covered area = area.
+        let cells = m.shoot_cells(0, count, |_| Vec2::splat(0.5), &[]);
+        let carried: f32 = cells
+            .iter()
+            .map(|c| {
+                0.5 * (c.corners[2] - c.corners[0])
+                    .cross(c.corners[3] - c.corners[1])
+                    .length()
+                    * c.weight
+            })
+            .sum();
+        assert!((carried - area).abs() < 1e-3 * area, "{carried} against {area}");
+    }
+    // A bent cluster (a shallow roof of small triangles) has no plane: no blocks.
+    let mut roof = split_quad(
+        [
+            v(0.0, 0.0, 0.0),
+            v(0.5, 0.0, 0.05),
+            v(0.5, 0.5, 0.05),
+            v(0.0, 0.5, 0.0),
+        ],
+        4,
+    );
+    let other = split_quad(
+        [
+            v(0.5, 0.0, 0.05),
+            v(1.0, 0.0, 0.0),
+            v(1.0, 0.5, 0.0),
+            v(0.5, 0.5, 0.05),
+        ],
+        4,
+    );
+    let base = roof.positions.len() as u32;
+    roof.positions.extend(&other.positions);
+    for (t, p) in other.indices.iter().zip(&other.patches) {
+        roof.tri_patch.push(roof.patches.len() as u32);
+        roof.indices.push(t.map(|i| i + base));
+        let Patch::Polygon(ix) = p else { unreachable!() };
+        roof.patches
+            .push(Patch::Polygon(ix.iter().map(|i| i + base).collect()));
+    }
+    let s = scene(vec![(roof, Vec3::splat(0.5))], vec![], &[]);
+    let m = RadiosityMesh::build(&s, 0.25);
+    let bent = m.patches.iter().find_map(|p| match &p.grids[0].domain {
+        Domain::Lattice(l) if l.surface.len() > 32 => Some(l),
+        _ => None,
+    });
+    let bent = bent.expect("the roof's halves merge as small polygons");
+    assert!(bent.blocks(16).is_none());
 }
