@@ -579,7 +579,12 @@ impl RadiosityMesh {
     /// `front` tells which side was hit (the back of a two-sided patch has its own
     /// values). The patch is that of the first weighted vertex.
     pub fn locate(&self, scene: &Scene, hit: &Hit, p: Vec3, front: bool) -> Interp {
-        let patch = &self.patches[self.patch_at(scene, hit, front) as usize];
+        self.locate_on(scene, self.patch_at(scene, hit, front), hit, p)
+    }
+
+    /// [`Self::locate`] on patch `patch`, already found by [`Self::patch_at`].
+    pub fn locate_on(&self, scene: &Scene, patch: u32, hit: &Hit, p: Vec3) -> Interp {
+        let patch = &self.patches[patch as usize];
         let grid = match patch.grids.len() {
             1 => &patch.grids[0],
             _ => {

@@ -310,7 +310,7 @@ impl<'a> Tracer<'a> {
             }
             let q = self.mesh.patch_at(self.scene, &hit, sp.front);
             if rho.max_element() > 0.0 {
-                let w = self.mesh.locate(self.scene, &hit, sp.p, sp.front);
+                let w = self.mesh.locate_on(self.scene, q, &hit, sp.p);
                 let slot = source
                     .and_then(|s| self.lists[q as usize].iter().position(|e| e.source == s))
                     .map_or(u8::MAX, |k| k as u8);
