@@ -15,7 +15,7 @@ mod trimesh_build;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 
 pub use bezier::BezierPatch;
-pub use solid_angle::{triangle_solid_angle, Subtense};
+pub use solid_angle::{front_solid_angle, triangle_solid_angle, Subtense};
 
 /// What a radiosity patch is: an input polygon, or a parametric piece of a Bezier patch.
 #[derive(Debug, Clone, PartialEq)]
@@ -225,5 +225,34 @@ impl TriMesh {
             }
         }
         Ok(())
+    }
+}
+
+/// Triangle `t` cut into `k x k` similar pieces of equal area, row by row: in each row
+/// a piece pointing up, then (but for the last) one pointing down, all wound as `t`.
+pub fn triangle_pieces(t: [Vec3; 3], k: u32) -> impl Iterator<Item = [Vec3; 3]> {
+    let k = k.max(1);
+    let at = move |i: u32, j: u32| {
+        t[0] + (t[1] - t[0]) * (i as f32 / k as f32) + (t[2] - t[0]) * (j as f32 / k as f32)
+    };
+    (0..k).flat_map(move |j| {
+        (0..k - j).flat_map(move |i| {
+            let up = [at(i, j), at(i + 1, j), at(i, j + 1)];
+            let down = (i + j + 1 < k).then(|| [at(i + 1, j + 1), at(i, j + 1), at(i + 1, j)]);
+            std::iter::once(up).chain(down)
+        })
+    })
+}
+
+/// The least number of cuts along each edge (at least 1, at most `max`) for which
+/// [`triangle_pieces`] makes pieces with no edge longer than `size`.
+pub fn cuts_for(t: &[Vec3; 3], size: f32, max: u32) -> u32 {
+    let longest = (0..3)
+        .map(|i| (t[(i + 1) % 3] - t[i]).length())
+        .fold(0.0, f32::max);
+    if size > 0.0 {
+        ((longest / size).ceil() as u32).clamp(1, max.max(1))
+    } else {
+        1
     }
 }

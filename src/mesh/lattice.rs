@@ -41,13 +41,20 @@ pub struct Lattice {
     pub surface: Vec<[Vec3; 3]>,
 }
 
+/// The world axes of the two lattice coordinates of a lattice perpendicular to `axis`
+/// (counter-clockwise in them faces +`axis`).
+fn plane_axes(axis: u8) -> (usize, usize) {
+    match axis {
+        0 => (1, 2),
+        1 => (2, 0),
+        _ => (0, 1),
+    }
+}
+
 /// The two lattice coordinates of `p` for a lattice perpendicular to `axis`.
 pub fn project(axis: u8, p: Vec3) -> Vec2 {
-    match axis {
-        0 => Vec2::new(p.y, p.z),
-        1 => Vec2::new(p.z, p.x),
-        _ => Vec2::new(p.x, p.y),
-    }
+    let (u, v) = plane_axes(axis);
+    Vec2::new(p[u], p[v])
 }
 
 fn tri_normal(t: &[Vec3; 3]) -> Vec3 {
@@ -152,11 +159,7 @@ impl Lattice {
         // A point of the lattice plane lifted onto the cluster's plane.
         let lift = |x: Vec2| {
             let mut p = Vec3::ZERO;
-            let (u, v) = match self.axis {
-                0 => (1, 2),
-                1 => (2, 0),
-                _ => (0, 1),
-            };
+            let (u, v) = plane_axes(self.axis);
             p[u] = x.x;
             p[v] = x.y;
             p[self.axis as usize] = (d - normal[u] * x.x - normal[v] * x.y) / along;
@@ -398,25 +401,12 @@ pub fn build(surface: Vec<[Vec3; 3]>, cell: f32) -> (Lattice, Vec<LatticeVertex>
     for t in &lat.surface {
         let a = 0.5 * tri_normal(t).length();
         total += a as f64;
-        let longest = (t[1] - t[0])
-            .length()
-            .max((t[2] - t[1]).length())
-            .max((t[0] - t[2]).length());
-        let k = ((2.0 * longest / cell).ceil() as u32).clamp(1, 64);
+        let k = crate::geometry::cuts_for(t, 0.5 * cell, 64);
         let piece = a / (k * k) as f32;
-        for j in 0..k {
-            for i in 0..k - j {
-                let mut centres = vec![(i as f32 + 1.0 / 3.0, j as f32 + 1.0 / 3.0)];
-                if i + j + 1 < k {
-                    centres.push((i as f32 + 2.0 / 3.0, j as f32 + 2.0 / 3.0));
-                }
-                for (s, r) in centres {
-                    let p = t[0] + (t[1] - t[0]) * (s / k as f32) + (t[2] - t[0]) * (r / k as f32);
-                    let w = lat.interp(0, p);
-                    for c in 0..4 {
-                        verts[w.vertices[c] as usize].area += piece * w.weights[c];
-                    }
-                }
+        for q in crate::geometry::triangle_pieces(*t, k) {
+            let w = lat.interp(0, (q[0] + q[1] + q[2]) / 3.0);
+            for c in 0..4 {
+                verts[w.vertices[c] as usize].area += piece * w.weights[c];
             }
         }
     }

@@ -893,17 +893,7 @@ pub fn surface_cells<'a>(
     if total > 0.0 && tris.len() as u32 <= count {
         for (t, a) in tris.iter().zip(&areas) {
             let k = ((count as f32 * a / total).sqrt().round() as u32).max(1);
-            let at = |i: u32, j: u32| {
-                t[0] + (t[1] - t[0]) * (i as f32 / k as f32) + (t[2] - t[0]) * (j as f32 / k as f32)
-            };
-            for j in 0..k {
-                for i in 0..k - j {
-                    pieces.push(([at(i, j), at(i + 1, j), at(i, j + 1)], 1.0));
-                    if i + j + 1 < k {
-                        pieces.push(([at(i + 1, j + 1), at(i, j + 1), at(i + 1, j)], 1.0));
-                    }
-                }
-            }
+            pieces.extend(crate::geometry::triangle_pieces(*t, k).map(|q| (q, 1.0)));
         }
     } else if total > 0.0 {
         let mut cdf = Vec::with_capacity(tris.len());

@@ -20,6 +20,7 @@ use rayon::prelude::*;
 
 use crate::accel::{Accel, Ray};
 use crate::emitters::SampledLight;
+use crate::geometry::{cuts_for, triangle_pieces};
 use crate::interaction::{offset_from, SurfacePoint};
 use crate::mesh::{point_in_polygon, Interp, RadiosityMesh};
 use crate::sampling::{cosine_direction, shot_seed, uniform3};
@@ -86,28 +87,6 @@ fn pick(cdf: &[f64], x: f64) -> usize {
         .min(cdf.len().saturating_sub(1))
 }
 
-/// Triangle `t` cut into k x k similar pieces, k the least that makes every edge at
-/// most `size`.
-fn pieces(t: &[Vec3; 3], size: f32) -> impl Iterator<Item = [Vec3; 3]> + '_ {
-    let longest = (0..3)
-        .map(|i| (t[(i + 1) % 3] - t[i]).length())
-        .fold(0.0, f32::max);
-    let k = if size > 0.0 {
-        ((longest / size).ceil() as u32).clamp(1, 256)
-    } else {
-        1
-    };
-    let (e1, e2) = ((t[1] - t[0]) / k as f32, (t[2] - t[0]) / k as f32);
-    let at = move |i: u32, j: u32| t[0] + e1 * i as f32 + e2 * j as f32;
-    (0..k).flat_map(move |j| {
-        (0..k - j).flat_map(move |i| {
-            let up = [at(i, j), at(i + 1, j), at(i, j + 1)];
-            let down = (i + j + 1 < k).then(|| [at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
-            std::iter::once(up).chain(down)
-        })
-    })
-}
-
 impl<'a> Tracer<'a> {
     /// The radiant pieces of every patch with unshot light: element triangles (the
     /// exact surface for merged patches).
@@ -150,7 +129,7 @@ impl<'a> Tracer<'a> {
                             .fold(0.0, f32::max)
                     };
                     for t in &l.surface {
-                        for piece in pieces(t, l.cell) {
+                        for piece in triangle_pieces(*t, cuts_for(t, l.cell, 256)) {
                             let c = (piece[0] + piece[1] + piece[2]) / 3.0;
                             let hi = piece.iter().map(|&x| hi_at(x)).fold(hi_at(c), f32::max);
                             push(piece, None, hi);

@@ -1,16 +1,9 @@
 use super::*;
 use crate::accel::Bvh;
+use crate::geometry::front_solid_angle as solid_angle;
 use crate::radiosity::{solve, SolveSettings};
 use crate::testutil::{room, scene, square, v};
 use std::f32::consts::PI;
-
-/// Solid angle of the fronts of `tris` from `x`, triangle by triangle.
-fn solid_angle(x: Vec3, tris: &[[Vec3; 3]]) -> f32 {
-    tris.iter()
-        .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]).dot(x - t[0]) > 0.0)
-        .map(|t| crate::geometry::triangle_solid_angle(x, t))
-        .sum()
-}
 
 /// Pass 1 settings of the selection and rendering tests.
 pub(crate) fn solve_settings(mesh_size: f32, n: u32) -> SolveSettings {
