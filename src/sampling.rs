@@ -89,6 +89,66 @@ pub fn cosine_direction(n: Vec3, u: Vec2) -> Vec3 {
     (t * local.x + b * local.y + n * (1.0 - u.x).max(0.0).sqrt()).normalize()
 }
 
+/// A discrete distribution drawn in constant time (Walker's alias method, built by
+/// Vose's algorithm): a binary search over a cumulative sum of millions of entries
+/// misses the cache at every step.
+#[derive(Debug, Clone)]
+pub struct Alias {
+    /// Per column: the chance of keeping the column, and the entry it passes to.
+    keep: Vec<f32>,
+    alias: Vec<u32>,
+    /// Each entry's probability.
+    prob: Vec<f64>,
+}
+
+impl Alias {
+    /// The distribution proportional to `weights` (negative or not-a-number counts as
+    /// zero); `None` when no weight is positive.
+    pub fn new(weights: &[f64]) -> Option<Self> {
+        let clean = |w: f64| if w > 0.0 && w.is_finite() { w } else { 0.0 };
+        let total: f64 = weights.iter().map(|&w| clean(w)).sum();
+        if !(total > 0.0) {
+            return None;
+        }
+        let n = weights.len();
+        let prob: Vec<f64> = weights.iter().map(|&w| clean(w) / total).collect();
+        let mut scaled: Vec<f64> = prob.iter().map(|p| p * n as f64).collect();
+        let (mut small, mut large): (Vec<u32>, Vec<u32>) =
+            (0..n as u32).partition(|&i| scaled[i as usize] < 1.0);
+        let mut keep = vec![1.0f32; n];
+        let mut alias: Vec<u32> = (0..n as u32).collect();
+        while let (Some(&s), Some(&l)) = (small.last(), large.last()) {
+            small.pop();
+            keep[s as usize] = scaled[s as usize] as f32;
+            alias[s as usize] = l;
+            scaled[l as usize] -= 1.0 - scaled[s as usize];
+            if scaled[l as usize] < 1.0 {
+                large.pop();
+                small.push(l);
+            }
+        }
+        // What is left keeps its column (rounding only).
+        Some(Self { keep, alias, prob })
+    }
+
+    /// The entry drawn by three uniform numbers in [0, 1): the first two (42 bits
+    /// together) choose a column, the third keeps it or passes to its alias.
+    pub fn pick(&self, a: f32, b: f32, c: f32) -> usize {
+        let x = (f64::from(a) + f64::from(b) / f64::from(1u32 << 21)).min(1.0 - 1e-15);
+        let col = ((x * self.keep.len() as f64) as usize).min(self.keep.len() - 1);
+        if c < self.keep[col] {
+            col
+        } else {
+            self.alias[col] as usize
+        }
+    }
+
+    /// The probability of entry `k`.
+    pub fn probability(&self, k: usize) -> f64 {
+        self.prob[k]
+    }
+}
+
 /// SplitMix64's finaliser: a good 64-bit mixing function.
 fn splitmix64(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
@@ -168,5 +228,26 @@ mod tests {
         }
         // E[cos] under p = cos / pi is 2/3.
         assert!((sum / k as f64 - 2.0 / 3.0).abs() < 0.01, "{}", sum / k as f64);
+    }
+
+    /// Entries are drawn as often as their weights ask, and a zero weight never.
+    #[test]
+    fn alias_draws_follow_the_weights() {
+        let w = [1.0, 0.0, 3.0, 0.5, 5.5, f64::NAN, 2.0];
+        let t = Alias::new(&w).unwrap();
+        let n = 600_000u32;
+        let mut counts = [0u32; 7];
+        for i in 0..n {
+            let [a, b, c] = uniform3(shot_seed(9, i as u64), 0);
+            counts[t.pick(a, b, c)] += 1;
+        }
+        let total = 12.0;
+        for (k, &c) in counts.iter().enumerate() {
+            let want = if w[k] > 0.0 { w[k] / total } else { 0.0 };
+            assert!((t.probability(k) - want).abs() < 1e-12);
+            let got = c as f64 / n as f64;
+            assert!((got - want).abs() < 0.003, "entry {k}: {got} against {want}");
+        }
+        assert!(Alias::new(&[0.0, -1.0]).is_none());
     }
 }

@@ -29,7 +29,7 @@ use crate::emitters::{light_power, SampledLight};
 use crate::interaction::{ray_epsilon, shadow_ray};
 use crate::mesh::{point_in_polygon, MeshVertex, RadiosityMesh};
 use crate::progress::Progress;
-use crate::sampling::{derive, uniform3, Stream};
+use crate::sampling::{derive, uniform3, Alias, Stream};
 use crate::scene::{Light, Rgb, Scene};
 use crate::{Error, Result};
 
@@ -600,15 +600,16 @@ impl Solver<'_> {
             .filter(|v| self.mesh.patches[v.patch as usize].reflectance.max_element() > 0.0)
             .count() as u64;
         let n = u64::from(self.settings.photons) * receiving;
-        let (emit, emit_cdf) = photons::Tracer::emitters(&self.mesh, &self.unshot);
-        let mut light_cdf = Vec::new();
-        let mut acc = 0.0;
-        for l in &self.scene.lights {
-            acc += light_power(self.scene, l);
-            light_cdf.push(acc);
-        }
+        let (emit, emit_power) = photons::Tracer::emitters(&self.mesh, &self.unshot);
+        let powers: Vec<f64> = self
+            .scene
+            .lights
+            .iter()
+            .map(|l| light_power(self.scene, l))
+            .collect();
+        let light_pick = Alias::new(&powers);
         let lights = SampledLight::prepare_all(self.scene);
-        let light_photons = if photons::has_mirrors(self.scene) && acc > 0.0 {
+        let light_photons = if photons::has_mirrors(self.scene) && light_pick.is_some() {
             n / 4
         } else {
             0
@@ -625,10 +626,10 @@ impl Solver<'_> {
             seed: self.settings.seed,
             patch_photons: if emit.is_empty() { 0 } else { n },
             emit,
-            emit_cdf,
+            emit_pick: Alias::new(&emit_power),
             light_photons,
             lights,
-            light_cdf,
+            light_pick,
         };
         let total = tracer.total();
         let chunks = tracer.chunks();

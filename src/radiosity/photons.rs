@@ -23,7 +23,7 @@ use crate::emitters::SampledLight;
 use crate::geometry::{cuts_for, triangle_pieces};
 use crate::interaction::{offset_from, SurfacePoint};
 use crate::mesh::{point_in_polygon, Interp, RadiosityMesh};
-use crate::sampling::{cosine_direction, shot_seed, uniform3};
+use crate::sampling::{cosine_direction, shot_seed, uniform3, Alias};
 use crate::scene::{Rgb, Scene};
 
 use super::SourceId;
@@ -66,34 +66,27 @@ pub struct Tracer<'a> {
     pub lists: &'a [Vec<super::ListEntry>],
     pub unshot: &'a [Rgb],
     pub seed: u64,
-    /// Surface pieces with unshot light, and the cumulative sum of their power.
+    /// Surface pieces with unshot light, drawn by their power.
     pub emit: Vec<EmitTri>,
-    pub emit_cdf: Vec<f64>,
+    pub emit_pick: Option<Alias>,
     /// Photons from patches, and from lights (only with mirrors in the scene).
     pub patch_photons: u64,
     pub light_photons: u64,
-    /// The lights, prepared, and the cumulative sum of their powers.
+    /// The lights, prepared, drawn by their powers.
     pub lights: Vec<SampledLight>,
-    pub light_cdf: Vec<f64>,
+    pub light_pick: Option<Alias>,
 }
 
 fn mean(c: Rgb) -> f32 {
     (c.x + c.y + c.z) / 3.0
 }
 
-fn pick(cdf: &[f64], x: f64) -> usize {
-    let total = *cdf.last().unwrap_or(&0.0);
-    cdf.partition_point(|&c| c <= x * total)
-        .min(cdf.len().saturating_sub(1))
-}
-
 impl<'a> Tracer<'a> {
     /// The radiant pieces of every patch with unshot light: element triangles (the
-    /// exact surface for merged patches).
+    /// exact surface for merged patches), and a bound on each one's power.
     pub fn emitters(mesh: &RadiosityMesh, unshot: &[Rgb]) -> (Vec<EmitTri>, Vec<f64>) {
         let mut emit = Vec::new();
-        let mut cdf = Vec::new();
-        let mut acc = 0.0f64;
+        let mut power = Vec::new();
         for (p, mp) in mesh.patches.iter().enumerate() {
             let first = mp.first_vertex as usize;
             let any = unshot[first..first + mp.vertex_count as usize]
@@ -106,13 +99,12 @@ impl<'a> Tracer<'a> {
                 let area = 0.5 * (corners[1] - corners[0]).cross(corners[2] - corners[0]).length();
                 let w = f64::from(area * value.max(0.0));
                 if w > 0.0 {
-                    acc += w;
                     emit.push(EmitTri {
                         corners,
                         patch: p as u32,
                         verts,
                     });
-                    cdf.push(acc);
+                    power.push(w);
                 }
             };
             match mp.grids.first().map(|g| &g.domain) {
@@ -144,7 +136,7 @@ impl<'a> Tracer<'a> {
                 }
             }
         }
-        (emit, cdf)
+        (emit, power)
     }
 
     /// The interpolation weights at point `x` of emitting piece `e`.
@@ -183,15 +175,16 @@ impl<'a> Tracer<'a> {
                 uniform3(seed, draw)
             };
             let (origin, normal, dir, power, source, from_light) = if i < self.patch_photons {
+                let Some(table) = &self.emit_pick else { continue };
                 let [a, b, cc] = next();
-                let k = pick(&self.emit_cdf, f64::from(a));
+                let k = table.pick(a, b, cc);
                 let e = &self.emit[k];
+                let [b, cc, _] = next();
                 let x = point_in_polygon(&e.corners, Vec2::new(b, cc));
                 let n = (e.corners[1] - e.corners[0]).cross(e.corners[2] - e.corners[0]);
                 let area = 0.5 * n.length();
                 let n = n.normalize_or(Vec3::Z);
-                let prob = (self.emit_cdf[k] - if k > 0 { self.emit_cdf[k - 1] } else { 0.0 })
-                    / self.emit_cdf.last().copied().unwrap_or(1.0);
+                let prob = table.probability(k);
                 let w = self.interp_at(e, x);
                 let b_unshot = w.apply(self.unshot);
                 // Radiosity B over area A sends B A; per photon over its probability.
@@ -206,11 +199,11 @@ impl<'a> Tracer<'a> {
                     false,
                 )
             } else {
-                let [a, u, v] = next();
-                let l = pick(&self.light_cdf, f64::from(a));
-                let share = (self.light_cdf[l] - if l > 0 { self.light_cdf[l - 1] } else { 0.0 })
-                    / self.light_cdf.last().copied().unwrap_or(1.0);
-                let count = self.light_photons as f32 * share as f32;
+                let Some(table) = &self.light_pick else { continue };
+                let [a, b, c] = next();
+                let l = table.pick(a, b, c);
+                let count = self.light_photons as f32 * table.probability(l) as f32;
+                let [u, v, _] = next();
                 let [c, d, _] = next();
                 match self.lights[l].emit([u, v, c, d]) {
                     Some(e) => (
@@ -388,8 +381,8 @@ mod tests {
         let mut unshot = vec![Vec3::ZERO; mesh.vertices.len()];
         unshot[corner] = Vec3::ONE;
         let power = f64::from(mesh.vertices[corner].area);
-        let (emit, cdf) = Tracer::emitters(&mesh, &unshot);
-        let bound = cdf.last().copied().unwrap_or(0.0);
+        let (emit, power_bound) = Tracer::emitters(&mesh, &unshot);
+        let bound: f64 = power_bound.iter().sum();
         assert!(
             !emit.is_empty() && bound >= power,
             "bound {bound} < power {power}"
