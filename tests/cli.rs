@@ -146,7 +146,7 @@ fn the_same_seed_gives_the_same_image_with_one_or_two_threads() {
         ]);
         assert!(o.status.success(), "{}", stderr(&o));
         let sc = radtrace::scene::xml::load(&scene, &[]).unwrap().scene;
-        solutions.push(radtrace::io::solution::load(&sol, &sc).unwrap());
+        solutions.push(radtrace::io::solution::load(&sol, &sc, &radtrace::accel::Bvh::build(&sc)).unwrap());
     }
     // Equal to the bit (only the solve's wall time differs).
     assert!(solutions[0].total().iter().any(|c| c.x > 0.0));

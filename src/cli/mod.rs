@@ -177,7 +177,7 @@ fn load_all(
     }
     let solution = match (solve, solution) {
         (None, _) => None,
-        (Some(_), Some(path)) => Some(t.time("load_solution", || solution::load(path, &scene))?),
+        (Some(_), Some(path)) => Some(t.time("load_solution", || solution::load(path, &scene, &bvh))?),
         (Some((args, seed)), None) => {
             let st = args.settings(&scene, seed)?;
             Some(t.time("solve", || run_solve(&scene, &bvh, &st, quiet))?)

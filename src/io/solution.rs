@@ -46,6 +46,7 @@ use bincode::Options;
 use serde::{Deserialize, Serialize};
 use xxhash_rust::xxh3::Xxh3Default;
 
+use crate::accel::Accel;
 use crate::geometry::Patch;
 use crate::mesh::RadiosityMesh;
 use crate::radiosity::{ListEntry, Solution, SolveSettings, SolveStats, SourceId};
@@ -56,7 +57,7 @@ use crate::{Error, Result};
 pub const MAGIC: &[u8; 18] = b"RADTRACE-SOLUTION\n";
 
 /// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
 
 /// Bytes before the payload: magic, version, fingerprint, length, checksum.
 const HEADER_LEN: usize = MAGIC.len() + 4 + 8 + 8 + 4;
@@ -436,13 +437,13 @@ fn read_file(path: &Path, mut file: impl Read) -> Result<([u8; HEADER_LEN], Vec<
 
 /// Loads a solution for `scene` from `path`: refuses a file that is not a solution
 /// file, of another version, damaged (checksum), or made for another scene.
-pub fn load(path: &Path, scene: &Scene) -> Result<Solution> {
+pub fn load(path: &Path, scene: &Scene, accel: &dyn Accel) -> Result<Solution> {
     let file = File::open(path).map_err(|e| Error::io(path, e))?;
-    load_from(path, file, scene)
+    load_from(path, file, scene, accel)
 }
 
 /// [`load`] from a reader (the file's contents); `path` only names the file in errors.
-pub fn load_from(path: &Path, reader: impl Read, scene: &Scene) -> Result<Solution> {
+pub fn load_from(path: &Path, reader: impl Read, scene: &Scene, accel: &dyn Accel) -> Result<Solution> {
     let bad = |msg: String| Error::input(path, None, msg);
     let (head, payload) = read_file(path, reader)?;
 
@@ -495,7 +496,7 @@ pub fn load_from(path: &Path, reader: impl Read, scene: &Scene) -> Result<Soluti
             p.vertex_count, p.settings.mesh_size
         )));
     }
-    let mesh = RadiosityMesh::build(scene, p.settings.mesh_size);
+    let mesh = RadiosityMesh::build_covered(scene, p.settings.mesh_size, accel);
     let fits = mesh.vertices.len() as u64 == p.vertex_count
         && mesh.patches.len() == patches
         && mesh
@@ -628,6 +629,10 @@ mod tests {
         }
     }
 
+    fn load_for(path: &Path, scene: &Scene) -> Result<Solution> {
+        load(path, scene, &Bvh::build(scene))
+    }
+
     /// The box scene and its solution, computed once for all tests.
     fn solved() -> &'static (Scene, Solution) {
         static SOLVED: OnceLock<(Scene, Solution)> = OnceLock::new();
@@ -659,7 +664,7 @@ mod tests {
     fn load_err(dir: &Path, name: &str, bytes: &[u8]) -> String {
         let path = dir.join(name);
         fs::write(&path, bytes).unwrap();
-        let Err(err) = load(&path, &solved().0) else {
+        let Err(err) = load_for(&path, &solved().0) else {
             panic!("{name} was accepted");
         };
         assert!(matches!(err, Error::Input { .. }), "{err:?}");
@@ -719,7 +724,7 @@ mod tests {
     fn round_trip_gives_the_same_solution() {
         let (scene, sol) = solved();
         let (_dir, path, bytes) = saved("box.rts");
-        let back = load(&path, scene).unwrap();
+        let back = load_for(&path, scene).unwrap();
         assert_eq!(back.settings, sol.settings);
         assert_eq!(back.stats, sol.stats);
         assert_eq!(back.lists, sol.lists);
@@ -732,7 +737,7 @@ mod tests {
 
         // The header, field by field.
         assert_eq!(&bytes[..18], b"RADTRACE-SOLUTION\n");
-        assert_eq!(&bytes[18..22], &[3, 0, 0, 0]);
+        assert_eq!(&bytes[18..22], &[4, 0, 0, 0]);
         assert_eq!(
             u64::from_le_bytes(bytes[22..30].try_into().unwrap()),
             scene_fingerprint(scene)
@@ -928,16 +933,16 @@ mod tests {
     #[test]
     fn another_version_is_refused_by_number() {
         let (dir, _path, mut bytes) = saved("box.rts");
-        // Version 2 files (every triangle a patch, no photons) are refused.
-        bytes[18..22].copy_from_slice(&2u32.to_le_bytes());
-        let msg = load_err(dir.path(), "v2.rts", &bytes);
+        // Version 3 files (covered vertices interpolated like the rest) are refused.
+        bytes[18..22].copy_from_slice(&3u32.to_le_bytes());
+        let msg = load_err(dir.path(), "v3.rts", &bytes);
         assert!(
-            msg.ends_with("made by another version of radtrace (format 2, this one reads 3)"),
+            msg.ends_with("made by another version of radtrace (format 3, this one reads 4)"),
             "{msg}"
         );
         // Even with nothing after the version field.
         let msg = load_err(dir.path(), "v7.rts", &[&MAGIC[..], &7u32.to_le_bytes()].concat());
-        assert!(msg.contains("(format 7, this one reads 3)"), "{msg}");
+        assert!(msg.contains("(format 7, this one reads 4)"), "{msg}");
     }
 
     #[test]
@@ -945,7 +950,7 @@ mod tests {
         let (_dir, path, _bytes) = saved("box.rts");
         let mut other = box_scene();
         other.shapes[0].mesh.positions[0].x -= 0.01;
-        let err = load(&path, &other).unwrap_err();
+        let err = load_for(&path, &other).unwrap_err();
         let msg = err.to_string();
         assert!(msg.starts_with(&path.display().to_string()), "{msg}");
         assert!(
@@ -961,7 +966,10 @@ mod tests {
             position: Vec3::ZERO,
             intensity: Vec3::ONE,
         };
-        assert!(load(&path, &b).unwrap_err().to_string().contains("another scene"));
+        assert!(load_for(&path, &b)
+            .unwrap_err()
+            .to_string()
+            .contains("another scene"));
     }
 
     #[test]
@@ -1119,7 +1127,7 @@ mod tests {
         let (scene, sol) = solved();
         let dir = tmpdir();
         let missing = dir.path().join("missing.rts");
-        let err = load(&missing, scene).unwrap_err();
+        let err = load_for(&missing, scene).unwrap_err();
         assert!(matches!(err, Error::Io { .. }));
         assert!(err.to_string().contains("missing.rts"));
         let nowhere = dir.path().join("no/such/dir/x.rts");
@@ -1127,7 +1135,7 @@ mod tests {
         assert!(matches!(err, Error::Output { .. }));
         assert!(err.to_string().contains("no/such/dir/x.rts"));
         // A directory is not a solution file either.
-        assert!(load(dir.path(), scene).is_err());
+        assert!(load_for(dir.path(), scene).is_err());
     }
 
     #[test]
@@ -1168,7 +1176,7 @@ mod tests {
             };
             let path = dir.path().join("random.rts");
             fs::write(&path, &file).unwrap();
-            let err = load(&path, &solved().0).unwrap_err();
+            let err = load_for(&path, &solved().0).unwrap_err();
             prop_assert!(err.to_string().contains("random.rts"));
         }
 
@@ -1184,7 +1192,7 @@ mod tests {
             prop_assume!(bytes != original);
             let path = dir.path().join("edited.rts");
             fs::write(&path, &bytes).unwrap();
-            prop_assert!(load(&path, &solved().0).is_err());
+            prop_assert!(load_for(&path, &solved().0).is_err());
         }
     }
 }

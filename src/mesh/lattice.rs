@@ -39,6 +39,12 @@ pub struct Lattice {
     pub cells: Vec<u32>,
     /// The cluster's triangles (the exact surface), wound to face the patch's side.
     pub surface: Vec<[Vec3; 3]>,
+    /// Per vertex offset: covered by geometry resting on the surface (a baseboard, a
+    /// panel a centimetre in front of a wall), so it sees no light. Covered vertices
+    /// take no part in interpolating the cells they share with uncovered ones: their
+    /// darkness would bleed a cell wide into the visible surface around every object
+    /// standing on it. Empty until [`RadiosityMesh::cover`](super::RadiosityMesh::cover).
+    pub covered: Vec<bool>,
 }
 
 /// The world axes of the two lattice coordinates of a lattice perpendicular to `axis`
@@ -241,9 +247,16 @@ impl Lattice {
             vertices: [base; 4],
             weights: [0.0; 4],
         };
+        let nodes = corners.map(|(i, j)| self.node(i, j));
+        let open = |v: u32| !self.covered.get(v as usize).copied().unwrap_or(false);
+        // Covered corners drop out, unless the whole cell is covered.
+        let any_open = nodes.iter().flatten().any(|&v| open(v));
         let mut sum = 0.0;
         for k in 0..4 {
-            if let Some(v) = self.node(corners[k].0, corners[k].1) {
+            if let Some(v) = nodes[k] {
+                if any_open && !open(v) {
+                    continue;
+                }
                 out.vertices[k] = base + v;
                 out.weights[k] = w[k];
                 sum += w[k];
@@ -272,6 +285,26 @@ impl Lattice {
             vertices: [base + best; 4],
             weights: [1.0, 0.0, 0.0, 0.0],
         }
+    }
+
+    /// Each vertex's share of the surface's area: each triangle's area spread by the
+    /// interpolation weights at the centres of its pieces (pieces no larger than half
+    /// a cell), so that a field deposited in proportion to the weights over the
+    /// shares is unbiased.
+    pub fn area_shares(&self) -> Vec<f32> {
+        let mut area = vec![0.0f32; self.nodes.len()];
+        for t in &self.surface {
+            let a = 0.5 * tri_normal(t).length();
+            let k = crate::geometry::cuts_for(t, 0.5 * self.cell, 64);
+            let piece = a / (k * k) as f32;
+            for q in crate::geometry::triangle_pieces(*t, k) {
+                let w = self.interp(0, (q[0] + q[1] + q[2]) / 3.0);
+                for c in 0..4 {
+                    area[w.vertices[c] as usize] += piece * w.weights[c];
+                }
+            }
+        }
+        area
     }
 
     /// Vertex offsets of the corners of used cell `c`, counter-clockwise in lattice
@@ -325,6 +358,7 @@ pub fn build(surface: Vec<[Vec3; 3]>, cell: f32) -> (Lattice, Vec<LatticeVertex>
         nodes: Vec::new(),
         cells: Vec::new(),
         surface,
+        covered: Vec::new(),
     };
 
     // Cells the triangles overlap.
@@ -395,21 +429,14 @@ pub fn build(surface: Vec<[Vec3; 3]>, cell: f32) -> (Lattice, Vec<LatticeVertex>
         })
         .collect();
 
-    // Area shares: each triangle's area spread by the bilinear weights at the centres
-    // of its pieces (pieces no larger than half a cell).
-    let mut total = 0.0f64;
-    for t in &lat.surface {
-        let a = 0.5 * tri_normal(t).length();
-        total += a as f64;
-        let k = crate::geometry::cuts_for(t, 0.5 * cell, 64);
-        let piece = a / (k * k) as f32;
-        for q in crate::geometry::triangle_pieces(*t, k) {
-            let w = lat.interp(0, (q[0] + q[1] + q[2]) / 3.0);
-            for c in 0..4 {
-                verts[w.vertices[c] as usize].area += piece * w.weights[c];
-            }
-        }
+    for (v, a) in verts.iter_mut().zip(lat.area_shares()) {
+        v.area = a;
     }
+    let total = lat
+        .surface
+        .iter()
+        .map(|t| 0.5 * f64::from(tri_normal(t).length()))
+        .sum::<f64>();
     (lat, verts, total as f32)
 }
 

@@ -18,6 +18,7 @@ use crate::accel::Hit;
 use crate::geometry::{BezierPatch, Patch};
 use crate::scene::{Light, Rgb, Scene};
 
+mod cover;
 mod lattice;
 pub use lattice::Lattice;
 

@@ -1,6 +1,6 @@
 use super::*;
 use crate::accel::{Accel, Bvh, Ray};
-use crate::testutil::{quad, scene, split_quad, split_square, v};
+use crate::testutil::{box_inside, quad, scene, split_quad, split_square, v};
 
 fn tri_scene() -> Scene {
     let v = Vec3::new;
@@ -409,4 +409,94 @@ fn a_planar_lattice_shoots_from_blocks_that_tile_it_and_face_its_front() {
     });
     let bent = bent.expect("the roof's halves merge as small polygons");
     assert!(bent.blocks(16).is_none());
+}
+
+/// A baseboard on a wall covers the lattice vertices behind it, and they no longer
+/// darken the visible wall above it: a field that is one wherever the wall is
+/// uncovered (zero behind the baseboard, as the shots leave it) interpolates to one
+/// everywhere on the visible wall, where before the row of covered vertices pulled the
+/// cell above the baseboard down. A panel half a metre in front of the wall (beyond
+/// the reach of half a cell) covers nothing, and the area shares still sum to the
+/// wall's area.
+#[test]
+fn a_baseboard_covers_the_vertices_behind_it_and_leaves_the_wall_above_unshaded() {
+    // A 4 x 2 wall in z = 0 facing +z, cut into 32 triangles: one lattice patch.
+    let wall = split_quad(
+        [
+            v(0.0, 0.0, 0.0),
+            v(4.0, 0.0, 0.0),
+            v(4.0, 2.0, 0.0),
+            v(0.0, 2.0, 0.0),
+        ],
+        4,
+    );
+    let mut shapes = vec![(wall, Vec3::splat(0.6))];
+    // A closed baseboard 0.13 high and 0.03 deep resting on the wall.
+    shapes.extend(
+        box_inside(v(-0.1, 0.0, 0.0), v(4.1, 0.13, 0.03))
+            .into_iter()
+            .map(|m| (m, Vec3::splat(0.1))),
+    );
+    // A panel 0.5 in front of the wall.
+    shapes.push((
+        quad([
+            v(1.0, 1.0, 0.5),
+            v(3.0, 1.0, 0.5),
+            v(3.0, 1.8, 0.5),
+            v(1.0, 1.8, 0.5),
+        ]),
+        Vec3::splat(0.5),
+    ));
+    let s = scene(shapes, vec![], &[]);
+    let cell = 0.25;
+    let bare = RadiosityMesh::build(&s, cell);
+    let mesh = RadiosityMesh::build_covered(&s, cell, &Bvh::build(&s));
+    let wall = &mesh.patches[0];
+    let Domain::Lattice(l) = &wall.grids[0].domain else {
+        panic!("the split wall is not one lattice patch");
+    };
+    let base = wall.first_vertex;
+    let verts = &mesh.vertices[base as usize..(base + wall.vertex_count) as usize];
+    for (k, vx) in verts.iter().enumerate() {
+        let covered = l.covered.get(k).copied().unwrap_or(false);
+        if vx.q.y < 0.1 {
+            assert!(covered, "vertex at {} behind the baseboard is not covered", vx.q);
+        }
+        if vx.q.y > 0.3 {
+            assert!(!covered, "vertex at {} in the open is covered", vx.q);
+        }
+    }
+    assert!(l.covered_count() > 0);
+    let sum: f32 = verts.iter().map(|v| v.area).sum();
+    assert!((sum - 8.0).abs() < 1e-3, "area shares sum to {sum}");
+
+    // One on the uncovered vertices, zero on the covered ones.
+    let field = |m: &RadiosityMesh, covered: &[bool]| -> Vec<Rgb> {
+        (0..m.vertices.len())
+            .map(|i| {
+                let k = i.wrapping_sub(base as usize);
+                if k < covered.len() && covered[k] {
+                    Vec3::ZERO
+                } else {
+                    Vec3::ONE
+                }
+            })
+            .collect()
+    };
+    let f = field(&mesh, &l.covered);
+    let Domain::Lattice(old) = &bare.patches[0].grids[0].domain else {
+        unreachable!()
+    };
+    let f_old = field(&bare, &l.covered);
+    let mut darkest_before = 1.0f32;
+    for i in 0..40 {
+        for y in [0.14, 0.2, 0.26, 0.32] {
+            let p = v(0.05 + 0.1 * i as f32, y, 0.0);
+            let now = l.interp(base, p).apply(&f).x;
+            assert!((now - 1.0).abs() < 1e-5, "{now} at {p}");
+            darkest_before = darkest_before.min(old.interp(base, p).apply(&f_old).x);
+        }
+    }
+    // The rule matters: without it the band above the baseboard was darker.
+    assert!(darkest_before < 0.9, "{darkest_before}");
 }

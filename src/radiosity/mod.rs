@@ -371,7 +371,7 @@ fn solve_inner(
 ) -> Result<(Solution, Vec<BTreeSet<SourceId>>)> {
     settings.validate()?;
     let start = Instant::now();
-    let mesh = RadiosityMesh::build(scene, settings.mesh_size);
+    let mesh = RadiosityMesh::build_covered(scene, settings.mesh_size, accel);
     let nv = mesh.vertices.len();
     progress.start("solve", 1000);
     let mut s = Solver {
