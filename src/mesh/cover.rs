@@ -1,21 +1,23 @@
 //! Vertices covered by geometry that rests on their surface.
 //!
-//! A lattice vertex is a corner of a cell that the surface overlaps, wherever on the
-//! surface that corner falls: behind a baseboard, under the frame of a board, a
-//! centimetre behind a panel standing in front of a wall. Such a vertex sees no light,
-//! and bilinear interpolation spreads its darkness a cell wide into the visible
-//! surface around every such object; in a furnished room those bands add up (the
-//! conference room's ceiling lost a tenth of its light through them). A vertex is
-//! *covered* when every one of a fixed set of rays from its receiving point over its
-//! hemisphere meets a surface within half a cell: no light can reach it but through a
-//! gap narrower than the mesh resolves. Covered vertices drop out of the interpolation
-//! of every cell they share with an uncovered vertex (see [`Lattice::interp`]), and
-//! the area shares are recomputed, so deposits stay unbiased.
+//! A vertex is a corner of an element wherever on the surface that corner falls:
+//! behind a baseboard, under the frame of a board, a centimetre behind a panel
+//! standing in front of a wall. Such a vertex sees no light, and interpolation spreads
+//! its darkness an element wide into the visible surface around every such object; in
+//! a furnished room those bands add up (the conference room's ceiling lost a tenth of
+//! its light through them). A vertex is *covered* when every one of a fixed set of
+//! rays from its receiving point over its hemisphere meets a surface within half an
+//! element: no light reaches it but through a gap narrower than the mesh resolves.
+//! Covered vertices drop out of the interpolation of every element they share with an
+//! uncovered vertex ([`Interp::uncover`](super::Interp::uncover), used by
+//! [`Lattice::interp`](super::Lattice::interp) and the grids'), and the area shares
+//! are recomputed under that rule, so deposits in proportion to the weights over the
+//! shares stay unbiased.
 
 use glam::Vec2;
 use rayon::prelude::*;
 
-use super::{Domain, Lattice, RadiosityMesh};
+use super::{Domain, Grid, RadiosityMesh};
 use crate::accel::{Accel, Ray};
 use crate::interaction::offset_from;
 use crate::sampling::cosine_direction;
@@ -44,9 +46,14 @@ impl RadiosityMesh {
         let mut reach = vec![0.0f32; self.vertices.len()];
         for p in &self.patches {
             for g in &p.grids {
-                if let Domain::Lattice(l) = &g.domain {
-                    let first = g.first_vertex as usize;
-                    reach[first..first + l.nodes.len()].fill(REACH * l.cell);
+                let first = g.first_vertex as usize;
+                let (count, cell) = match &g.domain {
+                    Domain::Lattice(l) => (l.nodes.len(), l.cell),
+                    _ => (g.vertex_count() as usize, self.mesh_size),
+                };
+                // An inert surface (one element, infinite mesh size) keeps no light.
+                if cell.is_finite() {
+                    reach[first..first + count].fill(REACH * cell);
                 }
             }
         }
@@ -58,15 +65,21 @@ impl RadiosityMesh {
             for g in 0..self.patches[p].grids.len() {
                 let grid = &mut self.patches[p].grids[g];
                 let first = grid.first_vertex as usize;
-                let Domain::Lattice(l) = &mut grid.domain else {
-                    continue;
+                let count = match &grid.domain {
+                    Domain::Lattice(l) => l.nodes.len(),
+                    _ => grid.vertex_count() as usize,
                 };
-                let flags = &covered[first..first + l.nodes.len()];
+                let flags = &covered[first..first + count];
                 if !flags.iter().any(|&c| c) {
                     continue;
                 }
-                l.covered = flags.to_vec();
-                let shares = l.area_shares();
+                let shares = if let Domain::Lattice(l) = &mut grid.domain {
+                    l.covered = flags.to_vec();
+                    l.area_shares()
+                } else {
+                    grid.covered = flags.to_vec();
+                    grid.area_shares()
+                };
                 for (v, a) in self.vertices[first..].iter_mut().zip(shares) {
                     v.area = a;
                 }
@@ -95,9 +108,56 @@ impl RadiosityMesh {
     }
 }
 
-impl Lattice {
-    /// The number of covered vertices.
-    pub fn covered_count(&self) -> usize {
-        self.covered.iter().filter(|&&c| c).count()
+impl Grid {
+    /// Each vertex's share of the grid's area under [`Grid::interp`] (covered
+    /// vertices left out): the area element at the centres of 4 x 4 pieces of every
+    /// element (pieces of the parameter triangle for a triangular grid), spread by
+    /// the weights there, scaled to the grid's area.
+    fn area_shares(&self) -> Vec<f32> {
+        let mut share = vec![0.0f32; self.vertex_count() as usize];
+        let base = self.first_vertex;
+        let mut add = |s: f32, t: f32, da: f32| {
+            let w = self.interp(s, t);
+            for k in 0..4 {
+                share[(w.vertices[k] - base) as usize] += da * w.weights[k];
+            }
+        };
+        const Q: u32 = 4;
+        match self.domain {
+            Domain::Tri(_) => {
+                // Parameter triangles of side 1 / (k Q): Q^2 k^2 of them, each
+                // 1 / (2 Q^2 k^2) of the unit triangle's parameter area.
+                let k = self.n * Q;
+                let piece = 0.5 / (k * k) as f32;
+                for j in 0..k {
+                    for i in 0..k - j {
+                        let (s, t) = (i as f32 / k as f32, j as f32 / k as f32);
+                        let h = 1.0 / k as f32;
+                        add(s + h / 3.0, t + h / 3.0, piece * self.jacobian(s, t));
+                        if i + j + 1 < k {
+                            add(s + 2.0 * h / 3.0, t + 2.0 * h / 3.0, piece * self.jacobian(s, t));
+                        }
+                    }
+                }
+            }
+            Domain::Lattice(_) => {}
+            _ => {
+                let (n, m) = (self.n * Q, self.m * Q);
+                let cell = 1.0 / (n * m) as f32;
+                for j in 0..m {
+                    for i in 0..n {
+                        let (s, t) = ((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / m as f32);
+                        add(s, t, cell * self.jacobian(s, t));
+                    }
+                }
+            }
+        }
+        let sum: f32 = share.iter().sum();
+        if sum > 0.0 {
+            for a in &mut share {
+                *a *= self.area / sum;
+            }
+        }
+        share
     }
 }

@@ -236,8 +236,9 @@ impl Lattice {
 
     /// Bilinear weights at point `p` of the surface over the vertices of its cell
     /// (`base` is the patch's first vertex). Corners that are not vertices (only at
-    /// the rim of the cluster, within rounding) drop out and the rest are scaled up;
-    /// a point in no used cell takes the nearest vertex.
+    /// the rim of the cluster, within rounding) drop out and the rest are scaled up,
+    /// as do covered corners ([`Interp::uncover`]); a point in no used cell takes the
+    /// nearest vertex.
     pub fn interp(&self, base: u32, p: Vec3) -> Interp {
         let x = project(self.axis, p);
         let (i, j, a, b) = self.cell_of(x);
@@ -247,16 +248,9 @@ impl Lattice {
             vertices: [base; 4],
             weights: [0.0; 4],
         };
-        let nodes = corners.map(|(i, j)| self.node(i, j));
-        let open = |v: u32| !self.covered.get(v as usize).copied().unwrap_or(false);
-        // Covered corners drop out, unless the whole cell is covered.
-        let any_open = nodes.iter().flatten().any(|&v| open(v));
         let mut sum = 0.0;
         for k in 0..4 {
-            if let Some(v) = nodes[k] {
-                if any_open && !open(v) {
-                    continue;
-                }
+            if let Some(v) = self.node(corners[k].0, corners[k].1) {
                 out.vertices[k] = base + v;
                 out.weights[k] = w[k];
                 sum += w[k];
@@ -266,7 +260,10 @@ impl Lattice {
             for wk in &mut out.weights {
                 *wk /= sum;
             }
-            return out;
+            if self.covered.is_empty() {
+                return out;
+            }
+            return out.uncover(|v| self.covered[(v - base) as usize]);
         }
         // Nearest vertex node.
         let best = self

@@ -60,6 +60,9 @@ pub struct Grid {
     pub flip: bool,
     /// Surface area (the sum of its elements' areas).
     pub area: f32,
+    /// Per vertex offset: covered by geometry resting on the surface (see `cover`);
+    /// empty when none is. A lattice keeps its own ([`Lattice::covered`]).
+    pub covered: Vec<bool>,
 }
 
 /// A radiosity patch: the unit that keeps a source list.
@@ -143,6 +146,29 @@ impl Interp {
             }
         }
         s
+    }
+
+    /// The same point with covered vertices (`covered(v)`) left out and the rest
+    /// scaled up, unless that leaves (almost) nothing: a point amid covered vertices
+    /// only keeps them.
+    pub fn uncover(self, covered: impl Fn(u32) -> bool) -> Interp {
+        let total: f32 = self.weights.iter().sum();
+        let open: f32 = (0..4)
+            .filter(|&k| self.weights[k] > 0.0 && !covered(self.vertices[k]))
+            .map(|k| self.weights[k])
+            .sum();
+        if open >= total || open <= 1e-4 * total {
+            return self;
+        }
+        let mut out = self;
+        for k in 0..4 {
+            out.weights[k] = if covered(self.vertices[k]) {
+                0.0
+            } else {
+                self.weights[k] / open
+            };
+        }
+        out
     }
 }
 
@@ -277,8 +303,19 @@ impl Grid {
         }
     }
 
-    /// The element containing parameters (s, t) and the weights of its corners.
+    /// The element containing parameters (s, t) and the weights of its corners
+    /// (covered corners left out, see [`Interp::uncover`]).
     fn interp(&self, s: f32, t: f32) -> Interp {
+        let w = self.interp_all(s, t);
+        if self.covered.is_empty() {
+            return w;
+        }
+        let base = self.first_vertex;
+        w.uncover(|v| self.covered[(v - base) as usize])
+    }
+
+    /// [`Grid::interp`] over all the element's corners.
+    fn interp_all(&self, s: f32, t: f32) -> Interp {
         let base = self.first_vertex;
         match self.domain {
             Domain::Tri(_) => {
@@ -452,6 +489,7 @@ impl RadiosityMesh {
                             first_vertex: mesh.vertices.len() as u32,
                             flip: false,
                             area: 0.0,
+                            covered: Vec::new(),
                         };
                         let (verts, a) = grid_vertices(&grid, patch_index);
                         grid.area = a;
@@ -479,6 +517,7 @@ impl RadiosityMesh {
                         first_vertex,
                         flip: false,
                         area: a,
+                        covered: Vec::new(),
                     });
                 }
                 mesh.patches.push(MeshPatch {

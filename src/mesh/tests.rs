@@ -411,68 +411,108 @@ fn a_planar_lattice_shoots_from_blocks_that_tile_it_and_face_its_front() {
     assert!(bent.blocks(16).is_none());
 }
 
-/// A baseboard on a wall covers the lattice vertices behind it, and they no longer
-/// darken the visible wall above it: a field that is one wherever the wall is
-/// uncovered (zero behind the baseboard, as the shots leave it) interpolates to one
-/// everywhere on the visible wall, where before the row of covered vertices pulled the
-/// cell above the baseboard down. A panel half a metre in front of the wall (beyond
-/// the reach of half a cell) covers nothing, and the area shares still sum to the
-/// wall's area.
+/// A baseboard on a wall covers the vertices behind it, and they no longer darken
+/// the visible wall above it: a field that is one wherever the wall is uncovered
+/// (zero behind the baseboard, as the shots leave it) interpolates to one everywhere
+/// on the visible wall, where before the row of covered vertices pulled the cell above
+/// the baseboard down. A panel half a metre in front of the wall (beyond the reach of
+/// half a cell) covers nothing, and the area shares still sum to the wall's area.
+/// Both for a wall of many triangles (a lattice patch) and of one quadrilateral (a
+/// grid patch).
 #[test]
 fn a_baseboard_covers_the_vertices_behind_it_and_leaves_the_wall_above_unshaded() {
-    // A 4 x 2 wall in z = 0 facing +z, cut into 32 triangles: one lattice patch.
-    let wall = split_quad(
-        [
-            v(0.0, 0.0, 0.0),
-            v(4.0, 0.0, 0.0),
-            v(4.0, 2.0, 0.0),
-            v(0.0, 2.0, 0.0),
-        ],
-        4,
-    );
-    let mut shapes = vec![(wall, Vec3::splat(0.6))];
-    // A closed baseboard 0.13 high and 0.03 deep resting on the wall.
-    shapes.extend(
-        box_inside(v(-0.1, 0.0, 0.0), v(4.1, 0.13, 0.03))
-            .into_iter()
-            .map(|m| (m, Vec3::splat(0.1))),
-    );
-    // A panel 0.5 in front of the wall.
-    shapes.push((
-        quad([
-            v(1.0, 1.0, 0.5),
-            v(3.0, 1.0, 0.5),
-            v(3.0, 1.8, 0.5),
-            v(1.0, 1.8, 0.5),
-        ]),
-        Vec3::splat(0.5),
-    ));
-    let s = scene(shapes, vec![], &[]);
-    let cell = 0.25;
-    let bare = RadiosityMesh::build(&s, cell);
-    let mesh = RadiosityMesh::build_covered(&s, cell, &Bvh::build(&s));
-    let wall = &mesh.patches[0];
-    let Domain::Lattice(l) = &wall.grids[0].domain else {
-        panic!("the split wall is not one lattice patch");
-    };
-    let base = wall.first_vertex;
-    let verts = &mesh.vertices[base as usize..(base + wall.vertex_count) as usize];
-    for (k, vx) in verts.iter().enumerate() {
-        let covered = l.covered.get(k).copied().unwrap_or(false);
-        if vx.q.y < 0.1 {
-            assert!(covered, "vertex at {} behind the baseboard is not covered", vx.q);
+    let corners = [
+        v(0.0, 0.0, 0.0),
+        v(4.0, 0.0, 0.0),
+        v(4.0, 2.0, 0.0),
+        v(0.0, 2.0, 0.0),
+    ];
+    for (name, wall) in [("lattice", split_quad(corners, 4)), ("grid", quad(corners))] {
+        let mut shapes = vec![(wall, Vec3::splat(0.6))];
+        // A closed baseboard 0.13 high and 0.03 deep resting on the wall.
+        shapes.extend(
+            box_inside(v(-0.1, 0.0, 0.0), v(4.1, 0.13, 0.03))
+                .into_iter()
+                .map(|m| (m, Vec3::splat(0.1))),
+        );
+        // A panel 0.5 in front of the wall.
+        shapes.push((
+            quad([
+                v(1.0, 1.0, 0.5),
+                v(3.0, 1.0, 0.5),
+                v(3.0, 1.8, 0.5),
+                v(1.0, 1.8, 0.5),
+            ]),
+            Vec3::splat(0.5),
+        ));
+        let s = scene(shapes, vec![], &[]);
+        let cell = 0.25;
+        let bare = RadiosityMesh::build(&s, cell);
+        let mesh = RadiosityMesh::build_covered(&s, cell, &Bvh::build(&s));
+        let wall = &mesh.patches[0];
+        let base = wall.first_vertex;
+        let g = &wall.grids[0];
+        let covered = match &g.domain {
+            Domain::Lattice(l) => l.covered.clone(),
+            Domain::Quad(_) => g.covered.clone(),
+            _ => panic!("{name}: the wall is neither a lattice nor a quadrilateral grid"),
+        };
+        let interp = |grid: &Grid, p: Vec3| match &grid.domain {
+            Domain::Lattice(l) => l.interp(base, p),
+            Domain::Quad(q) => {
+                let st = inverse_bilinear(*q, p);
+                grid.interp(st.x, st.y)
+            }
+            _ => unreachable!(),
+        };
+        let verts = &mesh.vertices[base as usize..(base + wall.vertex_count) as usize];
+        for (k, vx) in verts.iter().enumerate() {
+            let c = covered.get(k).copied().unwrap_or(false);
+            if vx.q.y < 0.1 {
+                assert!(
+                    c,
+                    "{name}: vertex at {} behind the baseboard is not covered",
+                    vx.q
+                );
+            }
+            if vx.q.y > 0.3 {
+                assert!(!c, "{name}: vertex at {} in the open is covered", vx.q);
+            }
         }
-        if vx.q.y > 0.3 {
-            assert!(!covered, "vertex at {} in the open is covered", vx.q);
+        assert!(covered.iter().any(|&c| c), "{name}");
+        let sum: f32 = verts.iter().map(|v| v.area).sum();
+        assert!((sum - 8.0).abs() < 1e-3, "{name}: area shares sum to {sum}");
+        // Each share is the integral of its vertex's weight over the wall (so
+        // deposits in proportion to the weights over the shares are unbiased).
+        let mut integral = vec![0.0f64; verts.len()];
+        let (nx, ny) = (400, 200);
+        for j in 0..ny {
+            for i in 0..nx {
+                let p = v(
+                    4.0 * (i as f32 + 0.5) / nx as f32,
+                    2.0 * (j as f32 + 0.5) / ny as f32,
+                    0.0,
+                );
+                let w = interp(g, p);
+                for k in 0..4 {
+                    integral[(w.vertices[k] - base) as usize] +=
+                        f64::from(w.weights[k]) * 8.0 / (nx * ny) as f64;
+                }
+            }
         }
-    }
-    assert!(l.covered_count() > 0);
-    let sum: f32 = verts.iter().map(|v| v.area).sum();
-    assert!((sum - 8.0).abs() < 1e-3, "area shares sum to {sum}");
+        for (k, vx) in verts.iter().enumerate() {
+            let d = (integral[k] - f64::from(vx.area)).abs();
+            assert!(
+                d < 0.02 * 0.0625,
+                "{name}: vertex {k} at {}: share {} against {}",
+                vx.q,
+                vx.area,
+                integral[k]
+            );
+        }
 
-    // One on the uncovered vertices, zero on the covered ones.
-    let field = |m: &RadiosityMesh, covered: &[bool]| -> Vec<Rgb> {
-        (0..m.vertices.len())
+        // One on the uncovered vertices, zero on the covered ones.
+        let field: Vec<Rgb> = (0..mesh.vertices.len())
             .map(|i| {
                 let k = i.wrapping_sub(base as usize);
                 if k < covered.len() && covered[k] {
@@ -481,22 +521,17 @@ fn a_baseboard_covers_the_vertices_behind_it_and_leaves_the_wall_above_unshaded(
                     Vec3::ONE
                 }
             })
-            .collect()
-    };
-    let f = field(&mesh, &l.covered);
-    let Domain::Lattice(old) = &bare.patches[0].grids[0].domain else {
-        unreachable!()
-    };
-    let f_old = field(&bare, &l.covered);
-    let mut darkest_before = 1.0f32;
-    for i in 0..40 {
-        for y in [0.14, 0.2, 0.26, 0.32] {
-            let p = v(0.05 + 0.1 * i as f32, y, 0.0);
-            let now = l.interp(base, p).apply(&f).x;
-            assert!((now - 1.0).abs() < 1e-5, "{now} at {p}");
-            darkest_before = darkest_before.min(old.interp(base, p).apply(&f_old).x);
+            .collect();
+        let mut darkest_before = 1.0f32;
+        for i in 0..40 {
+            for y in [0.14, 0.2, 0.26, 0.32] {
+                let p = v(0.05 + 0.1 * i as f32, y, 0.0);
+                let now = interp(g, p).apply(&field).x;
+                assert!((now - 1.0).abs() < 1e-5, "{name}: {now} at {p}");
+                darkest_before = darkest_before.min(interp(&bare.patches[0].grids[0], p).apply(&field).x);
+            }
         }
+        // The rule matters: without it the band above the baseboard was darker.
+        assert!(darkest_before < 0.9, "{name}: {darkest_before}");
     }
-    // The rule matters: without it the band above the baseboard was darker.
-    assert!(darkest_before < 0.9, "{darkest_before}");
 }
