@@ -77,6 +77,9 @@ pub struct SolveArgs {
     /// unshot (0: none; the rest stays unshot).
     #[arg(long, default_value_t = 64, value_name = "N")]
     pub(super) photons: u32,
+    /// Photons in all at most, whatever --photons asks for a large mesh (0: no cap).
+    #[arg(long, default_value_t = 6_000_000, value_name = "N")]
+    pub(super) max_photons: u64,
     /// Time budget of the solve in seconds: deterministic shots stop at half of it,
     /// photons at all of it (the residual reached is reported) [default: none].
     #[arg(long, value_name = "SECONDS")]
@@ -98,6 +101,7 @@ impl SolveArgs {
             max_shots: self.max_shots,
             seed,
             photons: self.photons,
+            max_photons: self.max_photons,
             time_limit: self.solve_time.unwrap_or(0.0),
         };
         settings.validate()?;

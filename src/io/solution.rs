@@ -1,14 +1,15 @@
 //! The solution file: the view-independent result of pass 1, saved once and reused
 //! for any view (`radtrace solve`, `radtrace render --solution`).
 //!
-//! # Format (version 3: the solve settings gained `photons` and `time_limit`)
+//! # Format (version 4: the mesh leaves covered vertices out of its interpolation, and
+//! the solve settings gained `max_photons`; version 3 gained `photons` and `time_limit`)
 //!
 //! All integers are little-endian.
 //!
 //! | offset | size | what |
 //! | ---: | ---: | --- |
 //! | 0 | 18 | magic: `RADTRACE-SOLUTION\n` |
-//! | 18 | 4 | format version, `u32` (2; version 1 let radiant patches evict lights from the lists) |
+//! | 18 | 4 | format version, `u32` (4; version 1 let radiant patches evict lights from the lists) |
 //! | 22 | 8 | scene fingerprint, `u64` ([`scene_fingerprint`]) |
 //! | 30 | 8 | payload length in bytes, `u64` |
 //! | 38 | 4 | checksum, `u32`: CRC-32 (IEEE) of bytes 18..38 followed by the payload |
@@ -25,8 +26,8 @@
 //! mesh's vertex count (`u64`) and its per-patch vertex counts (sequence of `u32`).
 //!
 //! The radiosity mesh itself is not stored: loading rebuilds it with
-//! [`RadiosityMesh::build`]`(scene, settings.mesh_size)` (deterministic) and refuses
-//! the file unless the vertex counts agree with what it says.
+//! [`RadiosityMesh::build_covered`]`(scene, settings.mesh_size, accel)` (deterministic)
+//! and refuses the file unless the vertex counts agree with what it says.
 //!
 //! # Loading
 //!
@@ -563,6 +564,7 @@ mod tests {
             max_shots: 50,
             seed: 1,
             photons: 0,
+            max_photons: 0,
             time_limit: 0.0,
         }
     }

@@ -65,6 +65,10 @@ pub struct SolveSettings {
     /// (0: it stays unshot).
     #[serde(default)]
     pub photons: u32,
+    /// Photons in all at most (0: no cap): on a model of hundreds of thousands of
+    /// vertices the photons per vertex would cost more than the rest of the render.
+    #[serde(default)]
+    pub max_photons: u64,
     /// Wall-clock budget in seconds (0: none): the deterministic shots stop at half of
     /// it, the photons at all of it (those traced then stand for all).
     #[serde(default)]
@@ -599,7 +603,10 @@ impl Solver<'_> {
             .iter()
             .filter(|v| self.mesh.patches[v.patch as usize].reflectance.max_element() > 0.0)
             .count() as u64;
-        let n = u64::from(self.settings.photons) * receiving;
+        let mut n = u64::from(self.settings.photons) * receiving;
+        if self.settings.max_photons > 0 {
+            n = n.min(self.settings.max_photons);
+        }
         let (emit, emit_power) = photons::Tracer::emitters(&self.mesh, &self.unshot);
         let powers: Vec<f64> = self
             .scene
@@ -914,6 +921,7 @@ mod tests {
             max_shots,
             seed: 3,
             photons: 0,
+            max_photons: 0,
             time_limit: 0.0,
         }
     }
@@ -1298,6 +1306,23 @@ mod tests {
         assert!(
             (absorbed - emitted).abs() < 0.02 * emitted,
             "{absorbed} vs {emitted}"
+        );
+        // --max-photons caps the photons in all (here a tenth of 64 per vertex), and
+        // the fewer photons still carry all the power.
+        let asked = a.stats.photons;
+        st.max_photons = asked / 10;
+        let c = solve(&s, &bvh, &st, &Silent).unwrap();
+        assert_eq!(c.stats.photons, asked / 10);
+        let absorbed: f64 = c
+            .mesh
+            .vertices
+            .iter()
+            .zip(&c.total())
+            .map(|(v, b)| (b.x / rho * (1.0 - rho) * v.area) as f64)
+            .sum();
+        assert!(
+            (absorbed - emitted).abs() < 0.03 * emitted,
+            "capped: {absorbed} vs {emitted}"
         );
     }
 

@@ -15,6 +15,7 @@ pub(crate) fn solve_settings(mesh_size: f32, n: u32) -> SolveSettings {
         max_shots: 40,
         seed: 1,
         photons: 0,
+        max_photons: 0,
         time_limit: 0.0,
     }
 }
