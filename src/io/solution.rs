@@ -756,8 +756,8 @@ mod tests {
         // The payload opens with the settings: mesh size 0.5 as f32 bits, n = 2...
         assert_eq!(&bytes[42..46], &0.5f32.to_le_bytes());
         assert_eq!(&bytes[46..50], &2u32.to_le_bytes());
-        // ...followed (after the 36 bytes of settings) by the vertex count of general.
-        assert_eq!(&bytes[78..86], &168u64.to_le_bytes());
+        // ...followed (after the 44 bytes of settings) by the vertex count of general.
+        assert_eq!(&bytes[86..94], &168u64.to_le_bytes());
 
         // Saving again replaces the file with the same bytes (deterministic).
         save(sol, scene, &path).unwrap();
