@@ -7,7 +7,10 @@
 //! a furnished room those bands add up (the conference room's ceiling lost a tenth of
 //! its light through them). A vertex is *covered* when every one of a fixed set of
 //! rays from its receiving point over its hemisphere meets a surface within half an
-//! element: no light reaches it but through a gap narrower than the mesh resolves.
+//! element, or meets one from behind: no light reaches it but through a gap narrower
+//! than the mesh resolves, or it lies inside a closed object (the floor under a box
+//! resting on it, the wall behind a cabinet; the objects' faces wound outwards, as
+//! Mitsuba's shapes and most models are).
 //! Covered vertices drop out of the interpolation of every element they share with an
 //! uncovered vertex ([`Interp::uncover`](super::Interp::uncover), used by
 //! [`Lattice::interp`](super::Lattice::interp) and the grids'), and the area shares
@@ -34,14 +37,14 @@ impl RadiosityMesh {
     /// [`RadiosityMesh::cover`].
     pub fn build_covered(scene: &Scene, mesh_size: f32, accel: &dyn Accel) -> Self {
         let mut mesh = Self::build(scene, mesh_size);
-        mesh.cover(accel);
+        mesh.cover(scene, accel);
         mesh
     }
 
     /// Finds the covered vertices of every lattice patch (see the module text) and
     /// recomputes those lattices' area shares. Deterministic: fixed directions, no
     /// seed, so a solution file's mesh is rebuilt the same way.
-    pub fn cover(&mut self, accel: &dyn Accel) {
+    pub fn cover(&mut self, scene: &Scene, accel: &dyn Accel) {
         // Per vertex: how far its rays must reach (0: not a lattice vertex).
         let mut reach = vec![0.0f32; self.vertices.len()];
         for p in &self.patches {
@@ -59,7 +62,7 @@ impl RadiosityMesh {
         }
         let covered: Vec<bool> = (0..self.vertices.len())
             .into_par_iter()
-            .map(|v| reach[v] > 0.0 && self.sees_only_near(v, reach[v], accel))
+            .map(|v| reach[v] > 0.0 && self.enclosed(v, reach[v], scene, accel))
             .collect();
         for p in 0..self.patches.len() {
             for g in 0..self.patches[p].grids.len() {
@@ -88,8 +91,9 @@ impl RadiosityMesh {
     }
 
     /// Whether every fixed ray from vertex `v`'s receiving point meets a surface
-    /// within `reach` (the one nearest the normal first: most vertices end there).
-    fn sees_only_near(&self, v: usize, reach: f32, accel: &dyn Accel) -> bool {
+    /// within `reach` or from behind (the inside of a closed object: the floor under a
+    /// box resting on it), the ray nearest the normal first (most vertices end there).
+    fn enclosed(&self, v: usize, reach: f32, scene: &Scene, accel: &dyn Accel) -> bool {
         let vx = &self.vertices[v];
         (0..STRATA * STRATA).all(|k| {
             let u = Vec2::new(
@@ -101,9 +105,12 @@ impl RadiosityMesh {
                 origin: offset_from(vx.q, vx.n, dir),
                 dir,
                 tmin: 0.0,
-                tmax: reach,
+                tmax: f32::INFINITY,
             };
-            accel.occluded(&ray)
+            accel.intersect(&ray).is_some_and(|hit| {
+                let [a, b, c] = scene.shapes[hit.shape as usize].mesh.triangle(hit.tri as usize);
+                hit.t <= reach || (b - a).cross(c - a).dot(dir) > 0.0
+            })
         })
     }
 }

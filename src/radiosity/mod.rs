@@ -1326,6 +1326,60 @@ mod tests {
         );
     }
 
+    /// A furnace with a box resting on its floor (faces wound outwards): every
+    /// surface emits and reflects alike, so the floor's radiosity is rho / (1 - rho)
+    /// right up to the box, where the vertices inside the box's footprint (in the
+    /// dark inside it) used to pull the cell around it down by half.
+    #[test]
+    fn furnace_with_a_box_resting_on_the_floor_stays_even_up_to_the_box() {
+        let rho = 0.5;
+        let mut shapes: Vec<TriMesh> = box_inside(Vec3::ZERO, Vec3::new(3.0, 1.5, 2.0));
+        for mut f in box_inside(Vec3::new(1.0, 0.0, 0.6), Vec3::new(2.0, 0.4, 1.4)) {
+            // Outwards: reverse the winding.
+            f.indices = vec![[0, 2, 1], [0, 3, 2]];
+            f.patches = vec![crate::geometry::Patch::Polygon(vec![0, 3, 2, 1])];
+            shapes.push(f);
+        }
+        let emitters: Vec<(usize, Rgb)> = (0..12).map(|i| (i, Vec3::splat(1.0 / PI))).collect();
+        let s = scene(
+            shapes.into_iter().map(|f| (f, Vec3::splat(rho))).collect(),
+            vec![],
+            &emitters,
+        );
+        let bvh = Bvh::build(&s);
+        let mut st = settings(0.2, 64, 40);
+        st.photons = 64;
+        let sol = solve(&s, &bvh, &st, &Silent).unwrap();
+        let total = sol.total();
+        let expect = rho / (1.0 - rho);
+        // Points of the floor (face 2) within a cell of the box, all round it.
+        let mut worst = expect;
+        for k in 0..40 {
+            let t = k as f32 / 40.0;
+            for p in [
+                Vec3::new(1.0 + t, 0.0, 0.55),
+                Vec3::new(1.0 + t, 0.0, 1.45),
+                Vec3::new(0.95, 0.0, 0.6 + 0.8 * t),
+                Vec3::new(2.05, 0.0, 0.6 + 0.8 * t),
+            ] {
+                let ray = crate::accel::Ray {
+                    origin: p + Vec3::Y * 0.01,
+                    dir: -Vec3::Y,
+                    tmin: 0.0,
+                    tmax: 1.0,
+                };
+                let hit = bvh.intersect(&ray).expect("the floor");
+                assert_eq!(hit.shape, 2);
+                let b = sol.mesh.locate(&s, &hit, p, true).apply(&total).x;
+                worst = worst.min(b);
+            }
+        }
+        assert!(
+            worst > 0.93 * expect,
+            "floor beside the box: {worst} against {expect}"
+        );
+    }
+
     /// The furnace with photons carrying all but the first shots.
     #[test]
     fn furnace_with_photons() {
