@@ -41,22 +41,22 @@ impl RadiosityMesh {
         mesh
     }
 
-    /// Finds the covered vertices of every lattice patch (see the module text) and
-    /// recomputes those lattices' area shares. Deterministic: fixed directions, no
-    /// seed, so a solution file's mesh is rebuilt the same way.
-    pub fn cover(&mut self, scene: &Scene, accel: &dyn Accel) {
-        // Per vertex: how far its rays must reach (0: not a lattice vertex).
+    /// Finds the covered vertices of every patch (see the module text) and recomputes
+    /// those grids' area shares. Deterministic: fixed directions, no seed, so a
+    /// solution file's mesh is rebuilt the same way.
+    fn cover(&mut self, scene: &Scene, accel: &dyn Accel) {
+        // Per vertex: how far its rays must reach (0: an inert surface, which keeps
+        // no light: one element, infinite mesh size).
         let mut reach = vec![0.0f32; self.vertices.len()];
         for p in &self.patches {
             for g in &p.grids {
                 let first = g.first_vertex as usize;
-                let (count, cell) = match &g.domain {
-                    Domain::Lattice(l) => (l.nodes.len(), l.cell),
-                    _ => (g.vertex_count() as usize, self.mesh_size),
+                let cell = match &g.domain {
+                    Domain::Lattice(l) => l.cell,
+                    _ => self.mesh_size,
                 };
-                // An inert surface (one element, infinite mesh size) keeps no light.
                 if cell.is_finite() {
-                    reach[first..first + count].fill(REACH * cell);
+                    reach[first..first + g.vertex_count() as usize].fill(REACH * cell);
                 }
             }
         }
@@ -68,11 +68,7 @@ impl RadiosityMesh {
             for g in 0..self.patches[p].grids.len() {
                 let grid = &mut self.patches[p].grids[g];
                 let first = grid.first_vertex as usize;
-                let count = match &grid.domain {
-                    Domain::Lattice(l) => l.nodes.len(),
-                    _ => grid.vertex_count() as usize,
-                };
-                let flags = &covered[first..first + count];
+                let flags = &covered[first..first + grid.vertex_count() as usize];
                 if !flags.iter().any(|&c| c) {
                     continue;
                 }

@@ -43,7 +43,8 @@ pub struct Lattice {
     /// panel a centimetre in front of a wall), so it sees no light. Covered vertices
     /// take no part in interpolating the cells they share with uncovered ones: their
     /// darkness would bleed a cell wide into the visible surface around every object
-    /// standing on it. Empty until [`RadiosityMesh::cover`](super::RadiosityMesh::cover).
+    /// standing on it. Empty unless the mesh was built by
+    /// [`RadiosityMesh::build_covered`](super::RadiosityMesh::build_covered).
     pub covered: Vec<bool>,
 }
 

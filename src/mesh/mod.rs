@@ -60,8 +60,9 @@ pub struct Grid {
     pub flip: bool,
     /// Surface area (the sum of its elements' areas).
     pub area: f32,
-    /// Per vertex offset: covered by geometry resting on the surface (see `cover`);
-    /// empty when none is. A lattice keeps its own ([`Lattice::covered`]).
+    /// Per vertex offset: covered by geometry resting on the surface (see
+    /// [`RadiosityMesh::build_covered`]); empty when none is. A lattice keeps its own
+    /// ([`Lattice::covered`]), which its `interp` reads.
     pub covered: Vec<bool>,
 }
 
@@ -949,25 +950,41 @@ pub fn surface_cells<'a>(
         }
     }
     pieces.into_iter().enumerate().map(move |(k, (t, weight))| {
-        let p = point_in_polygon(&t, u(k as u32));
-        let mut corners = [Vec3::ZERO; 4];
-        corners[..3].copy_from_slice(&t);
-        let n = (t[1] - t[0]).cross(t[2] - t[0]);
-        let side = (0.5 * n.length()).sqrt();
-        let q = ((2.0 * side / mesh_size.max(1e-30)).ceil() as u32).clamp(1, 16);
-        let value = cell_mean(q, true, |a, b| {
-            value(t[0] + (t[1] - t[0]) * a + (t[2] - t[0]) * b)
-        });
-        ShootCell {
-            corners,
-            len: 3,
-            p,
-            n: n.normalize_or(Vec3::Z),
-            value,
-            weight,
-            flat: true,
-        }
+        flat_cell(&t, point_in_polygon(&t, u(k as u32)), weight, mesh_size, &value)
     })
+}
+
+/// A shooting cell on the triangle or planar quadrilateral `poly` with point `p` and
+/// weight `weight`, holding the mean of `value` over it (points about half of
+/// `mesh_size` apart).
+fn flat_cell(poly: &[Vec3], p: Vec3, weight: f32, mesh_size: f32, value: impl Fn(Vec3) -> Rgb) -> ShootCell {
+    let tri = poly.len() == 3;
+    // Twice the area along the normal: edges of a triangle, diagonals of a quadrilateral.
+    let n = if tri {
+        (poly[1] - poly[0]).cross(poly[2] - poly[0])
+    } else {
+        (poly[2] - poly[0]).cross(poly[3] - poly[1])
+    };
+    let side = (0.5 * n.length()).sqrt();
+    let q = ((2.0 * side / mesh_size.max(1e-30)).ceil() as u32).clamp(1, 16);
+    let value = cell_mean(q, tri, |a, b| {
+        value(if tri {
+            poly[0] + (poly[1] - poly[0]) * a + (poly[2] - poly[0]) * b
+        } else {
+            point_in_polygon(poly, Vec2::new(a, b))
+        })
+    });
+    let mut corners = [Vec3::ZERO; 4];
+    corners[..poly.len()].copy_from_slice(poly);
+    ShootCell {
+        corners,
+        len: poly.len() as u8,
+        p,
+        n: n.normalize_or(Vec3::Z),
+        value,
+        weight,
+        flat: true,
+    }
 }
 
 /// Shooting cells on the planar quadrilaterals `blocks` that tile a surface of area
@@ -982,22 +999,12 @@ fn block_cells<'a>(
     value: impl Fn(Vec3) -> Rgb + 'a,
 ) -> impl Iterator<Item = ShootCell> + 'a {
     let quad_area = |b: &[Vec3; 4]| 0.5 * (b[2] - b[0]).cross(b[3] - b[1]).length();
-    let covered: f32 = blocks.iter().map(quad_area).sum();
-    let weight = if covered > 0.0 { area / covered } else { 1.0 };
-    blocks.iter().enumerate().map(move |(k, b)| {
-        let side = quad_area(b).sqrt();
-        let q = ((2.0 * side / mesh_size.max(1e-30)).ceil() as u32).clamp(1, 16);
-        let value = cell_mean(q, false, |s, t| value(point_in_polygon(b, Vec2::new(s, t))));
-        ShootCell {
-            corners: *b,
-            len: 4,
-            p: point_in_polygon(b, u(k as u32)),
-            n: (b[2] - b[0]).cross(b[3] - b[1]).normalize_or(Vec3::Z),
-            value,
-            weight,
-            flat: true,
-        }
-    })
+    let tiled: f32 = blocks.iter().map(quad_area).sum();
+    let weight = if tiled > 0.0 { area / tiled } else { 1.0 };
+    blocks
+        .iter()
+        .enumerate()
+        .map(move |(k, b)| flat_cell(b, point_in_polygon(b, u(k as u32)), weight, mesh_size, &value))
 }
 
 impl ShootCell {
