@@ -200,7 +200,12 @@ fn patch_domains(mesh: &crate::geometry::TriMesh, patch: &Patch) -> Vec<Domain> 
             match pts.len() {
                 0..=2 => vec![],
                 3 => vec![Domain::Tri([pts[0], pts[1], pts[2]])],
-                4 => vec![Domain::Quad([pts[0], pts[1], pts[2], pts[3]])],
+                4 if planar([pts[0], pts[1], pts[2], pts[3]]) => {
+                    vec![Domain::Quad([pts[0], pts[1], pts[2], pts[3]])]
+                }
+                // A warped quadrilateral is the two triangles the geometry fans it into
+                // (the bilinear surface strays from them, and its receiving points
+                // would sit in front of or behind the surface the rays meet).
                 _ => (1..pts.len() - 1)
                     .map(|k| Domain::Tri([pts[0], pts[k], pts[k + 1]]))
                     .collect(),
@@ -214,6 +219,13 @@ fn patch_domains(mesh: &crate::geometry::TriMesh, patch: &Patch) -> Vec<Domain> 
             }]
         }
     }
+}
+
+/// Whether the quadrilateral's fourth corner lies in the plane of the first three
+/// (within 1e-5 of its diagonal).
+fn planar([a, b, c, d]: [Vec3; 4]) -> bool {
+    let n = (b - a).cross(c - a).normalize_or_zero();
+    n.dot(d - a).abs() <= 1e-5 * (c - a).length().max((d - b).length())
 }
 
 /// The triangles of the scene patches `members` of `mesh` (polygons as fans).

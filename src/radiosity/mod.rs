@@ -909,7 +909,7 @@ mod tests {
     use crate::accel::Bvh;
     use crate::geometry::TriMesh;
     use crate::progress::Silent;
-    use crate::testutil::{box_inside, quad, scene};
+    use crate::testutil::{box_inside, quad, scene, v};
     use std::f32::consts::PI;
 
     fn settings(mesh_size: f32, samples: u32, max_shots: u32) -> SolveSettings {
@@ -1047,6 +1047,39 @@ mod tests {
             .map(|t| (t.x - expect).abs() / expect)
             .fold(0.0, f32::max);
         assert!(worst < 0.03, "worst vertex off by {worst}");
+    }
+
+    /// A warped wall (one corner 2 cm out of the plane of the others on a 2 m wall,
+    /// as the Cornell box's left wall) sees a point light in front of it at every
+    /// vertex: its vertices lie on the two triangles the rays meet, not on a bilinear
+    /// surface up to 5 mm off them, behind which the light was hidden from blotches
+    /// of vertices. Both ways of warping.
+    #[test]
+    fn a_warped_wall_sees_a_light_in_front_of_it_everywhere() {
+        for w in [0.02, -0.02] {
+            let wall = quad([v(0., 0., 0.), v(2., 0., 0.), v(2., 2., w), v(0., 2., 0.)]);
+            let light = Light::Point {
+                position: v(1.0, 1.0, 1.0),
+                intensity: Vec3::ONE,
+            };
+            let s = scene(vec![(wall, Vec3::splat(0.5))], vec![light], &[]);
+            let sol = solve(&s, &Bvh::build(&s), &settings(0.1, 16, 0), &Silent).unwrap();
+            let e = &sol.lists[0][0];
+            assert_eq!(e.source, SourceId::Light(0));
+            let hidden = e
+                .occluded
+                .iter()
+                .zip(&e.unoccluded)
+                .filter(|(o, u)| o.x < 0.999 * u.x)
+                .count();
+            assert_eq!(
+                hidden,
+                0,
+                "warp {w}: {hidden} of {} vertices in shadow",
+                e.occluded.len()
+            );
+            assert!(e.unoccluded.iter().all(|u| u.x > 0.0));
+        }
     }
 
     /// Emitted = absorbed + unshot, in a closed box lit by a point light.
