@@ -24,6 +24,9 @@ pub enum Stream {
     /// every vertex draws its own points, so the errors of neighbouring vertices do
     /// not move together.
     Receiver(u32),
+    /// The jittered points of the shooting cells on piece `k` (a grid of a patch, a
+    /// patch of an area light) of one shot (pass 1).
+    Cells(u32),
 }
 
 impl Stream {
@@ -35,6 +38,7 @@ impl Stream {
             Stream::Reflection => 0x5bd1_e995,
             Stream::Light(s) => s.wrapping_mul(0x85eb_ca6b),
             Stream::Receiver(v) => v.wrapping_mul(0xc2b2_ae35) ^ 0x27d4_eb2f,
+            Stream::Cells(k) => k.wrapping_mul(0x1656_67b1) ^ 0x9e37_79b9,
         }
     }
 }

@@ -757,8 +757,8 @@ impl RadiosityMesh {
 
     /// The patch cut into about `count` cells for shooting from it (stratified:
     /// cells of a regular grid over each of the patch's grids, in proportion to
-    /// area), each with a point jittered inside it by `u` and the mean of `field`
-    /// (per vertex; may be empty) over it.
+    /// area), each with a point jittered inside it by `u` (`u(g << 16 | k)` for cell
+    /// `k` of grid `g`) and the mean of `field` (per vertex; may be empty) over it.
     pub fn shoot_cells(
         &self,
         patch: u32,
@@ -792,7 +792,7 @@ impl RadiosityMesh {
             }
             let k = (count as f32 * grid.area / total).max(1.0);
             let side = (k.sqrt().round() as u32).max(1);
-            let base = g as u32 * 65_537;
+            let base = (g as u32) << 16;
             // Points of the field's mean: about two per element along each side.
             let q = (2 * grid.n.max(grid.m)).div_ceil(side).clamp(1, 16);
             let mut push = |corners: &[(f32, f32)], idx: u32| {

@@ -493,9 +493,20 @@ impl Solver<'_> {
             .sum()
     }
 
+    /// The jitter of cell `piece << 16 | k` of a shot: point `k` of a Sobol-Burley
+    /// sequence (indexed below 2^16) scrambled for the piece (a grid of the patch, a
+    /// patch of an area light).
     fn jitter(&self, shot: u64) -> impl Fn(u32) -> Vec2 {
         let seed = crate::sampling::shot_seed(self.settings.seed, shot);
-        move |k| Vec2::new(sobol_burley::sample(k, 0, seed), sobol_burley::sample(k, 1, seed))
+        move |i| {
+            let (piece, k) = (i >> 16, i & 0xFFFF);
+            let s = if piece == 0 {
+                seed
+            } else {
+                derive(seed, Stream::Cells(piece))
+            };
+            Vec2::new(sobol_burley::sample(k, 0, s), sobol_burley::sample(k, 1, s))
+        }
     }
 
     /// The shooting cells of a source at 1, 4, 16 ... up to `shoot_samples` cells
@@ -569,7 +580,7 @@ impl Solver<'_> {
                 for p in first..last {
                     let share = self.mesh.patches[p].area / area;
                     let k = ((count as f32 * share).round() as u32).max(1);
-                    let base = (p - first) as u32 * 1_000_003;
+                    let base = ((p - first) as u32) << 16;
                     for c in self
                         .mesh
                         .shoot_cells(p as u32, k, |i| jitter(base.wrapping_add(i)), &[])
