@@ -93,6 +93,28 @@ pub fn cosine_direction(n: Vec3, u: Vec2) -> Vec3 {
     (t * local.x + b * local.y + n * (1.0 - u.x).max(0.0).sqrt()).normalize()
 }
 
+/// Point `j` of `per` (a power of two, at most 128) stratified points in the unit
+/// square, from the draws of `seed` at `index | j` (`index`'s low 7 bits clear):
+/// strata as square as they go (2 x 2, 4 x 2, 4 x 4 ...). Two points are a point and
+/// its antipode on the torus instead (a shifted two-point lattice, both from draw
+/// `index`): apart across an edge of any direction, where two strata would be apart
+/// across one direction only.
+pub fn stratum(seed: u32, index: u32, j: u32, per: u32) -> Vec2 {
+    if per == 2 {
+        let [a, b, _] = uniform3(seed, index);
+        let h = 0.5 * j as f32;
+        return Vec2::new((a + h).fract(), (b + h).fract());
+    }
+    let [a, b, _] = uniform3(seed, index | j);
+    let per = per.max(1);
+    let sx = 1 << per.ilog2().div_ceil(2);
+    let sy = per / sx;
+    Vec2::new(
+        ((j % sx) as f32 + a) / sx as f32,
+        ((j / sx) as f32 + b) / sy as f32,
+    )
+}
+
 /// A discrete distribution drawn in constant time (Walker's alias method, built by
 /// Vose's algorithm): a binary search over a cumulative sum of millions of entries
 /// misses the cache at every step.
@@ -232,6 +254,29 @@ mod tests {
         }
         // E[cos] under p = cos / pi is 2/3.
         assert!((sum / k as f64 - 2.0 / 3.0).abs() < 0.01, "{}", sum / k as f64);
+    }
+
+    /// Stratified points fall one in each stratum (4 x 4 for 16, 4 x 2 for 8), and two
+    /// points are half the torus apart in both coordinates.
+    #[test]
+    fn strata_hold_one_point_each_and_two_points_are_antipodes() {
+        for (per, sx, sy) in [(16u32, 4u32, 4u32), (8, 4, 2), (4, 2, 2), (1, 1, 1)] {
+            let mut seen = vec![false; per as usize];
+            for j in 0..per {
+                let u = stratum(5, 3 << 8, j, per);
+                let (i, l) = ((u.x * sx as f32) as u32, (u.y * sy as f32) as u32);
+                assert!(
+                    !seen[(l * sx + i) as usize],
+                    "per {per}: stratum ({i}, {l}) twice"
+                );
+                seen[(l * sx + i) as usize] = true;
+            }
+        }
+        for index in [0, 1 << 8, 7 << 8] {
+            let (p, q) = (stratum(11, index, 0, 2), stratum(11, index, 1, 2));
+            let d = (p - q).abs();
+            assert!((d.x - 0.5).abs() < 1e-6 && (d.y - 0.5).abs() < 1e-6, "{p} {q}");
+        }
     }
 
     /// Entries are drawn as often as their weights ask, and a zero weight never.

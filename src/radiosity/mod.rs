@@ -30,7 +30,7 @@ use crate::emitters::{light_power, SampledLight};
 use crate::interaction::{ray_epsilon, shadow_ray};
 use crate::mesh::{point_in_polygon, MeshVertex, RadiosityMesh};
 use crate::progress::Progress;
-use crate::sampling::{derive, uniform3, Alias, Stream};
+use crate::sampling::{derive, stratum, Alias, Stream};
 use crate::scene::{Light, Rgb, Scene};
 use crate::{Error, Result};
 
@@ -41,13 +41,6 @@ const FIRST_LIGHT_RAYS: u32 = 2;
 /// Shadow rays per vertex to a source of few cells that the first rays found partly
 /// hidden (see `Solver::gather`).
 const REFINE_RAYS: u32 = 16;
-
-/// A power of two `per` as `sx` x `sy` strata of the unit square, as square as it goes
-/// (two rays are placed otherwise: see `Solver::gather`).
-fn strata(per: u32) -> (u32, u32) {
-    let sx = 1 << per.max(1).ilog2().div_ceil(2);
-    (sx, per.max(1) / sx)
-}
 
 /// What shot light: a light source of the scene or a radiant patch of the mesh.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
@@ -727,10 +720,10 @@ impl Solver<'_> {
     /// `seed` (the vertex's own) chooses where in each flat cell its shadow rays aim.
     ///
     /// The form factor of each cell is exact; its visibility is sampled with
-    /// coherence, as the shadow image buffer does it on the screen: `first_rays` at
-    /// least (one per cell for patches, [`FIRST_LIGHT_RAYS`] for lights), stratified
-    /// within the cells, and only where they disagree (the source partly hidden) is a
-    /// source of fewer than `refine_rays` cells sampled again with that many
+    /// coherence, as the shadow image buffer does it on the screen: `first_rays` over
+    /// the set's cells at least (one per cell for patches, [`FIRST_LIGHT_RAYS`] for
+    /// lights), stratified within the cells, and only where they disagree (the source partly hidden) is a
+    /// source of fewer than [`REFINE_RAYS`] cells sampled again with that many
     /// stratified rays. A vertex that sees all or none of a source pays the first
     /// rays only.
     fn gather(
@@ -739,13 +732,38 @@ impl Solver<'_> {
         v: &MeshVertex,
         seed: u32,
         light: Option<&SampledLight>,
-        (first_rays, refine_rays): (u32, u32),
+        first_rays: u32,
     ) -> (Rgb, Rgb, u64) {
-        let x = v.q;
-        let n = v.n;
-        let mut unocc = Vec3::ZERO;
-        // The cells that reach the vertex, with what each brings unoccluded.
-        let mut reach: Vec<(usize, Rgb)> = Vec::with_capacity(points.len());
+        let (x, n) = (v.q, v.n);
+        // Rays through of `per` to cell `k` (one at a point: a light in space, or a
+        // curved cell's point), with the one shadow-ray rule of both passes: to a light
+        // point in space, or to a point of the shooting cell's surface.
+        let through = |k: usize, per: u32, salt: u32| -> (u32, u32) {
+            let sp = &points[k];
+            let per = if sp.flat { per } else { 1 };
+            let normal = if light.is_some() { None } else { Some(sp.n) };
+            let hits = (0..per)
+                .filter(|&j| {
+                    let target = if sp.flat {
+                        let u = stratum(seed, (k as u32) << 8 | salt << 7, j, per);
+                        point_in_polygon(&sp.poly[..sp.len as usize], u)
+                    } else {
+                        sp.p
+                    };
+                    !self.accel.occluded(&shadow_ray(x, n, target, normal))
+                })
+                .count() as u32;
+            (hits, per)
+        };
+        let (mut occ, mut unocc, mut rays) = (Vec3::ZERO, Vec3::ZERO, 0u64);
+        let (mut seen, mut hidden) = (false, false);
+        // The cells that reach the vertex and what each brings, kept while few enough
+        // to be refined.
+        let mut few = [(0usize, Vec3::ZERO); REFINE_RAYS as usize];
+        let mut cells = 0usize;
+        let per = first_rays
+            .div_ceil(points.len().max(1) as u32)
+            .next_power_of_two();
         for (k, sp) in points.iter().enumerate() {
             let d = sp.p - x;
             let r2 = d.length_squared();
@@ -780,61 +798,27 @@ impl Solver<'_> {
                 sp.radiosity * f
             };
             unocc += e;
-            reach.push((k, e));
-        }
-        // Each cell reached sampled with `per` stratified rays (one at a point: a light
-        // in space, or a curved cell's point): the visible part of what it brings, the
-        // rays, and whether any ray got through and any was stopped.
-        let sample = |per: u32, salt: u32| {
-            let (sx, sy) = strata(per);
-            let (mut occ, mut rays, mut seen, mut hidden) = (Vec3::ZERO, 0, false, false);
-            for &(k, e) in &reach {
-                let sp = &points[k];
-                let per = if sp.flat { per } else { 1 };
-                let mut through = 0;
-                for j in 0..per {
-                    // The one shadow-ray rule of both passes: to a light point in space,
-                    // or to a point of the shooting cell's surface (stratum j of it).
-                    let target = if sp.flat {
-                        let u = if per == 2 {
-                            // Two rays: a point and its antipode on the torus (a shifted
-                            // two-point lattice), apart across any edge's direction.
-                            let [a, b, _] = uniform3(seed, (k as u32) << 8 | salt << 7);
-                            let h = 0.5 * j as f32;
-                            Vec2::new((a + h).fract(), (b + h).fract())
-                        } else {
-                            let [a, b, _] = uniform3(seed, (k as u32) << 8 | salt << 7 | j);
-                            Vec2::new(
-                                ((j % sx) as f32 + a) / sx as f32,
-                                ((j / sx) as f32 + b) / sy as f32,
-                            )
-                        };
-                        point_in_polygon(&sp.poly[..sp.len as usize], u)
-                    } else {
-                        sp.p
-                    };
-                    let normal = if light.is_some() { None } else { Some(sp.n) };
-                    if !self.accel.occluded(&shadow_ray(x, n, target, normal)) {
-                        through += 1;
-                    }
-                }
-                rays += u64::from(per);
-                seen |= through > 0;
-                hidden |= through < per;
-                occ += e * (through as f32 / per as f32);
+            if let Some(slot) = few.get_mut(cells) {
+                *slot = (k, e);
             }
-            (occ, rays, seen && hidden)
-        };
-        let cells = reach.len() as u32;
-        if cells == 0 {
-            return (Vec3::ZERO, unocc, 0);
+            cells += 1;
+            let (hits, per) = through(k, per, 0);
+            rays += u64::from(per);
+            seen |= hits > 0;
+            hidden |= hits < per;
+            occ += e * (hits as f32 / per as f32);
         }
-        let (occ, rays, partly) = sample(first_rays.div_ceil(cells).next_power_of_two(), 0);
-        if !partly || cells >= refine_rays {
+        if !(seen && hidden) || cells >= REFINE_RAYS as usize {
             return (occ, unocc, rays);
         }
-        let (occ, more, _) = sample(refine_rays.div_ceil(cells).next_power_of_two(), 1);
-        (occ, unocc, rays + more)
+        let per = REFINE_RAYS.div_ceil(cells as u32).next_power_of_two();
+        let mut refined = Vec3::ZERO;
+        for &(k, e) in &few[..cells] {
+            let (hits, per) = through(k, per, 1);
+            rays += u64::from(per);
+            refined += e * (hits as f32 / per as f32);
+        }
+        (refined, unocc, rays)
     }
 
     /// Shoots from `points` of `source` to every vertex not on the source itself and
@@ -867,9 +851,9 @@ impl Solver<'_> {
         // what the selection's gradient criterion reads, and what every later shot
         // passes on. More first rays from patches cost the conference room 1.5 M rays
         // for no change seen in the Cornell box or the paper room.
-        let rays = match source {
-            SourceId::Light(_) => (FIRST_LIGHT_RAYS, REFINE_RAYS),
-            SourceId::Patch(_) => (1, REFINE_RAYS),
+        let first_rays = match source {
+            SourceId::Light(_) => FIRST_LIGHT_RAYS,
+            SourceId::Patch(_) => 1,
         };
         let mesh = &self.mesh;
         let receives =
@@ -885,7 +869,8 @@ impl Solver<'_> {
                 }
                 let rho = mesh.patches[v.patch as usize].reflectance;
                 let seed = derive(levels.seed, Stream::Receiver(i as u32));
-                let (o, u, r) = self.gather(levels.for_vertex(v.q, max), v, seed, sampled.as_ref(), rays);
+                let (o, u, r) =
+                    self.gather(levels.for_vertex(v.q, max), v, seed, sampled.as_ref(), first_rays);
                 (o * rho, u * rho, r)
             })
             .collect();
