@@ -5,10 +5,12 @@
 //! standing in front of a wall. Such a vertex sees no light, and interpolation spreads
 //! its darkness an element wide into the visible surface around every such object; in
 //! a furnished room those bands add up (the conference room's ceiling lost a tenth of
-//! its light through them). A vertex is *covered* when every one of a fixed set of
-//! rays from its receiving point over its hemisphere meets a surface within half an
-//! element, or meets one from behind: no light reaches it but through a gap narrower
-//! than the mesh resolves, or it lies inside a closed object (the floor under a box
+//! its light through them). A vertex is *covered* when the ray along its normal and
+//! all but one in eight of a fixed set of 64 rays from its receiving point over its
+//! hemisphere meet a surface within half an element, or meet one from behind: no light reaches it but through
+//! a gap narrower than the mesh resolves (the centimetre between a wall and a window
+//! or light fitting on it, which a vertex near the fitting's edge sees out through
+//! at grazing angles), or it lies inside a closed object (the floor under a box
 //! resting on it, the wall behind a cabinet; the objects' faces wound outwards, as
 //! Mitsuba's shapes and most models are).
 //! Covered vertices drop out of the interpolation of every element they share with an
@@ -26,8 +28,15 @@ use crate::interaction::offset_from;
 use crate::sampling::cosine_direction;
 use crate::scene::Scene;
 
-/// Strata per side of the fixed cosine-distributed directions (16 rays at most).
-const STRATA: u32 = 4;
+/// Strata per side of the fixed cosine-distributed directions (64 rays at most).
+const STRATA: u32 = 8;
+
+/// Rays of the `STRATA^2` that may escape a covered vertex: one in eight. A vertex a
+/// centimetre or two behind the edge of a panel that stands a centimetre off its
+/// surface (a window or a light fitting on a wall) sees out only through that gap, at
+/// grazing angles; a vertex in the corner of a room sees out through a quarter of its
+/// hemisphere, and is not covered.
+const MAX_OPEN: u32 = STRATA * STRATA / 8;
 
 /// How far, in cells, a covered vertex sees at most in every direction.
 const REACH: f32 = 0.5;
@@ -86,12 +95,14 @@ impl RadiosityMesh {
         }
     }
 
-    /// Whether every fixed ray from vertex `v`'s receiving point meets a surface
-    /// within `reach` or from behind (the inside of a closed object: the floor under a
-    /// box resting on it), the ray nearest the normal first (most vertices end there).
+    /// Whether the ray nearest the normal and all but [`MAX_OPEN`] of the fixed rays
+    /// from vertex `v`'s receiving point meet a surface within `reach` or from behind
+    /// (the inside of a closed object: the floor under a box resting on it), the rays
+    /// nearest the normal first (most vertices end at the first).
     fn enclosed(&self, v: usize, reach: f32, scene: &Scene, accel: &dyn Accel) -> bool {
         let vx = &self.vertices[v];
-        (0..STRATA * STRATA).all(|k| {
+        let mut open = 0;
+        for k in 0..STRATA * STRATA {
             let u = Vec2::new(
                 ((k / STRATA) as f32 + 0.5) / STRATA as f32,
                 ((k % STRATA) as f32 + 0.5) / STRATA as f32,
@@ -103,11 +114,20 @@ impl RadiosityMesh {
                 tmin: 0.0,
                 tmax: f32::INFINITY,
             };
-            accel.intersect(&ray).is_some_and(|hit| {
+            let shut = accel.intersect(&ray).is_some_and(|hit| {
                 let [a, b, c] = scene.shapes[hit.shape as usize].mesh.triangle(hit.tri as usize);
                 hit.t <= reach || (b - a).cross(c - a).dot(dir) > 0.0
-            })
-        })
+            });
+            if !shut {
+                open += 1;
+                // The ray nearest the normal decides alone: a vertex that sees out
+                // along its normal is in the open (a ray, not 64, for most vertices).
+                if k == 0 || open > MAX_OPEN {
+                    return false;
+                }
+            }
+        }
+        true
     }
 }
 

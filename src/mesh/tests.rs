@@ -1,5 +1,7 @@
 use super::*;
 use crate::accel::{Accel, Bvh, Ray};
+use crate::geometry::TriMesh;
+use crate::scene::Rgb;
 use crate::testutil::{box_inside, quad, scene, split_quad, split_square, v};
 
 fn tri_scene() -> Scene {
@@ -534,4 +536,54 @@ fn a_baseboard_covers_the_vertices_behind_it_and_leaves_the_wall_above_unshaded(
         // The rule matters: without it the band above the baseboard was darker.
         assert!(darkest_before < 0.9, "{name}: {darkest_before}");
     }
+}
+
+/// A panel a centimetre in front of a wall, facing away from it (a window or a light
+/// fitting: one-sided), covers the wall vertices behind it up to its edge: a vertex
+/// 1.7 cm inside the edge sees out only through the gap at grazing angles, and was
+/// left uncovered when every ray had to be shut (its near-zero light then darkened the
+/// visible wall an element wide beside the panel: the paper room's window and ceiling
+/// light). Vertices beside the panel, and in the wall's corners with the floor and
+/// the side walls, stay uncovered.
+#[test]
+fn a_panel_a_centimetre_off_a_wall_covers_the_vertices_behind_it_to_its_edge() {
+    let cell = 0.25;
+    let (x0, x1, y0, y1) = (1.233, 2.767, 0.733, 1.267);
+    let mut shapes: Vec<(TriMesh, Rgb)> = box_inside(v(0.0, 0.0, 0.0), v(4.0, 2.0, 3.0))
+        .into_iter()
+        .map(|m| (m, Vec3::splat(0.6)))
+        .collect();
+    let wall = shapes
+        .iter()
+        .position(|(m, _)| (0..3).all(|k| m.triangle(0)[k].z == 0.0))
+        .expect("the box has a wall at z = 0");
+    shapes.push((
+        quad([v(x0, y0, 0.01), v(x1, y0, 0.01), v(x1, y1, 0.01), v(x0, y1, 0.01)]),
+        Vec3::splat(0.5),
+    ));
+    let s = scene(shapes, vec![], &[]);
+    let mesh = RadiosityMesh::build_covered(&s, cell, &Bvh::build(&s));
+    let patch = &mesh.patches[wall];
+    let g = &patch.grids[0];
+    let covered = match &g.domain {
+        Domain::Lattice(l) => l.covered.clone(),
+        _ => g.covered.clone(),
+    };
+    let verts =
+        &mesh.vertices[patch.first_vertex as usize..(patch.first_vertex + patch.vertex_count) as usize];
+    let mut behind = 0;
+    for (k, vx) in verts.iter().enumerate() {
+        let c = covered.get(k).copied().unwrap_or(false);
+        let inside = vx.q.x > x0 + 0.015 && vx.q.x < x1 - 0.015 && vx.q.y > y0 + 0.015 && vx.q.y < y1 - 0.015;
+        let outside = vx.q.x < x0 || vx.q.x > x1 || vx.q.y < y0 || vx.q.y > y1;
+        if inside {
+            behind += 1;
+            assert!(c, "vertex at {} behind the panel is not covered", vx.q);
+        }
+        if outside {
+            assert!(!c, "vertex at {} beside the panel is covered", vx.q);
+        }
+    }
+    // Three rows of seven vertices, the outer ones 1.7 cm inside the edges.
+    assert_eq!(behind, 21);
 }
