@@ -28,7 +28,8 @@ use crate::scene::{Rgb, Scene};
 
 use super::SourceId;
 
-/// A piece of a radiant surface photons leave from.
+/// A piece of a patch's surface, no bigger than an element ([`pieces`]): photons
+/// leave from them, and a light shot's projection samples them.
 #[derive(Debug, Clone, Copy)]
 pub struct EmitTri {
     /// Corners (the exact surface, or an element over it).
@@ -82,8 +83,11 @@ fn mean(c: Rgb) -> f32 {
 }
 
 impl<'a> Tracer<'a> {
-    /// The radiant pieces of every patch with unshot light: element triangles (the
-    /// exact surface for merged patches), and a bound on each one's power.
+    /// The radiant pieces of every patch with unshot light ([`pieces`]), and a bound
+    /// on each one's power: its area times the largest unshot radiosity of the
+    /// vertices that weigh in at its corners and centre (pieces are no bigger than a
+    /// cell, so no lit cell inside a large input triangle is left without photons:
+    /// that light would be lost).
     pub fn emitters(mesh: &RadiosityMesh, unshot: &[Rgb]) -> (Vec<EmitTri>, Vec<f64>) {
         let mut emit = Vec::new();
         let mut power = Vec::new();
@@ -95,71 +99,26 @@ impl<'a> Tracer<'a> {
             if !any {
                 continue;
             }
-            let mut push = |corners: [Vec3; 3], verts: Option<[u32; 3]>, value: f32| {
-                let area = 0.5 * (corners[1] - corners[0]).cross(corners[2] - corners[0]).length();
-                let w = f64::from(area * value.max(0.0));
-                if w > 0.0 {
-                    emit.push(EmitTri {
-                        corners,
-                        patch: p as u32,
-                        verts,
-                    });
-                    power.push(w);
-                }
-            };
-            match mp.grids.first().map(|g| &g.domain) {
-                Some(crate::mesh::Domain::Lattice(l)) if mp.grids.len() == 1 => {
-                    let base = mp.grids[0].first_vertex;
-                    // The density is bounded by the largest vertex of the cells at a
-                    // piece's corners and centre; pieces are cut no bigger than a cell,
-                    // so no lit cell inside a large input triangle is left without
-                    // photons (that light would be lost).
-                    let hi_at = |x: Vec3| {
-                        let w = l.interp(base, x);
+            for e in pieces(mesh, p as u32) {
+                let c = e.corners;
+                let hi = [c[0], c[1], c[2], (c[0] + c[1] + c[2]) / 3.0]
+                    .iter()
+                    .map(|&x| {
+                        let w = weights(mesh, &e, x);
                         (0..4)
                             .map(|k| mean(unshot[w.vertices[k] as usize]))
                             .fold(0.0, f32::max)
-                    };
-                    for t in &l.surface {
-                        for piece in triangle_pieces(*t, cuts_for(t, l.cell, 256)) {
-                            let c = (piece[0] + piece[1] + piece[2]) / 3.0;
-                            let hi = piece.iter().map(|&x| hi_at(x)).fold(hi_at(c), f32::max);
-                            push(piece, None, hi);
-                        }
-                    }
-                }
-                _ => {
-                    for t in mesh.element_triangles(p as u32) {
-                        let hi = t.iter().map(|&v| mean(unshot[v as usize])).fold(0.0, f32::max);
-                        push(t.map(|v| mesh.vertices[v as usize].p), Some(t), hi);
-                    }
+                    })
+                    .fold(0.0, f32::max);
+                let area = 0.5 * (c[1] - c[0]).cross(c[2] - c[0]).length();
+                let w = f64::from(area * hi.max(0.0));
+                if w > 0.0 {
+                    emit.push(e);
+                    power.push(w);
                 }
             }
         }
         (emit, power)
-    }
-
-    /// The interpolation weights at point `x` of emitting piece `e`.
-    fn interp_at(&self, e: &EmitTri, x: Vec3) -> Interp {
-        let mp = &self.mesh.patches[e.patch as usize];
-        match (e.verts, mp.grids.first().map(|g| &g.domain)) {
-            (None, Some(crate::mesh::Domain::Lattice(l))) => l.interp(mp.grids[0].first_vertex, x),
-            (Some(t), _) => {
-                let c = e.corners;
-                let n = (c[1] - c[0]).cross(c[2] - c[0]);
-                let l2 = n.length_squared().max(1e-30);
-                let b1 = (x - c[0]).cross(c[2] - c[0]).dot(n) / l2;
-                let b2 = (c[1] - c[0]).cross(x - c[0]).dot(n) / l2;
-                Interp {
-                    vertices: [t[0], t[1], t[2], t[0]],
-                    weights: [1.0 - b1 - b2, b1, b2, 0.0],
-                }
-            }
-            (None, _) => Interp {
-                vertices: [mp.first_vertex; 4],
-                weights: [0.0; 4],
-            },
-        }
     }
 
     /// Traces chunk `c` and returns its deposits and the rays cast.
@@ -185,7 +144,7 @@ impl<'a> Tracer<'a> {
                 let area = 0.5 * n.length();
                 let n = n.normalize_or(Vec3::Z);
                 let prob = table.probability(k);
-                let w = self.interp_at(e, x);
+                let w = weights(self.mesh, e, x);
                 let b_unshot = w.apply(self.unshot);
                 // Radiosity B over area A sends B A; per photon over its probability.
                 let power = b_unshot * (area / (prob as f32 * self.patch_photons as f32));
@@ -346,6 +305,57 @@ impl<'a> Tracer<'a> {
 /// Whether any surface of the scene reflects like a mirror.
 pub fn has_mirrors(scene: &Scene) -> bool {
     scene.bsdfs.iter().any(|b| b.kind.has_mirror())
+}
+
+/// The surface of patch `p` in triangles no bigger than an element: a merged
+/// patch's own triangles cut to its lattice's cell (weights from the lattice), else
+/// its element triangles (weights barycentric).
+pub fn pieces(mesh: &RadiosityMesh, p: u32) -> Vec<EmitTri> {
+    let mp = &mesh.patches[p as usize];
+    match mp.grids.first().map(|g| &g.domain) {
+        Some(crate::mesh::Domain::Lattice(l)) if mp.grids.len() == 1 => l
+            .surface
+            .iter()
+            .flat_map(|t| triangle_pieces(*t, cuts_for(t, l.cell, 256)))
+            .map(|corners| EmitTri {
+                corners,
+                patch: p,
+                verts: None,
+            })
+            .collect(),
+        _ => mesh
+            .element_triangles(p)
+            .into_iter()
+            .map(|t| EmitTri {
+                corners: t.map(|v| mesh.vertices[v as usize].p),
+                patch: p,
+                verts: Some(t),
+            })
+            .collect(),
+    }
+}
+
+/// The interpolation weights at point `x` of piece `e` (see [`pieces`]).
+pub fn weights(mesh: &RadiosityMesh, e: &EmitTri, x: Vec3) -> Interp {
+    let mp = &mesh.patches[e.patch as usize];
+    match (e.verts, mp.grids.first().map(|g| &g.domain)) {
+        (None, Some(crate::mesh::Domain::Lattice(l))) => l.interp(mp.grids[0].first_vertex, x),
+        (Some(t), _) => {
+            let c = e.corners;
+            let n = (c[1] - c[0]).cross(c[2] - c[0]);
+            let l2 = n.length_squared().max(1e-30);
+            let b1 = (x - c[0]).cross(c[2] - c[0]).dot(n) / l2;
+            let b2 = (c[1] - c[0]).cross(x - c[0]).dot(n) / l2;
+            Interp {
+                vertices: [t[0], t[1], t[2], t[0]],
+                weights: [1.0 - b1 - b2, b1, b2, 0.0],
+            }
+        }
+        (None, _) => Interp {
+            vertices: [mp.first_vertex; 4],
+            weights: [0.0; 4],
+        },
+    }
 }
 
 #[cfg(test)]
