@@ -27,6 +27,9 @@ pub enum Stream {
     /// The jittered points of the shooting cells on piece `k` (a grid of a patch, a
     /// patch of an area light) of one shot (pass 1).
     Cells(u32),
+    /// The points a point or spot light's shot samples on the mixed pieces of patch
+    /// `p` (pass 1: the power a light's shot passes on).
+    Piece(u32),
 }
 
 impl Stream {
@@ -39,6 +42,7 @@ impl Stream {
             Stream::Light(s) => s.wrapping_mul(0x85eb_ca6b),
             Stream::Receiver(v) => v.wrapping_mul(0xc2b2_ae35) ^ 0x27d4_eb2f,
             Stream::Cells(k) => k.wrapping_mul(0x1656_67b1) ^ 0x9e37_79b9,
+            Stream::Piece(p) => p.wrapping_mul(0x27d4_eb2f) ^ 0x1656_67b1,
         }
     }
 }

@@ -35,6 +35,7 @@ use crate::scene::{Light, Rgb, Scene};
 use crate::{Error, Result};
 
 mod photons;
+mod project;
 
 /// Shadow rays per vertex to a light at least (see `Solver::gather`).
 const FIRST_LIGHT_RAYS: u32 = 2;
@@ -886,6 +887,17 @@ impl Solver<'_> {
             Some((occ, unocc, vs.iter().map(|x| x.2).sum::<u64>()))
         });
         let results: Vec<Option<Received>> = results.collect();
+        // What a point or spot light's shot passes on: the mean over each vertex's
+        // surface where its pieces are mixed (see [`project`]).
+        let mut passed = match &sampled {
+            Some(l) => {
+                let point: Vec<Rgb> = per_vertex.iter().map(|x| x.0).collect();
+                let (out, rays) = project::project_all(mesh, self.accel, l, receives, &point, levels.seed);
+                self.stats.rays += rays;
+                out
+            }
+            None => Vec::new(),
+        };
         let mut touched = Vec::new();
         for (p, r) in results.into_iter().enumerate() {
             let Some((occ, unocc, rays)) = r else { continue };
@@ -901,7 +913,8 @@ impl Solver<'_> {
                 continue;
             }
             touched.push(p);
-            for (k, c) in occ.iter().enumerate() {
+            let onward = passed.get_mut(p).and_then(Option::take);
+            for (k, c) in onward.as_deref().unwrap_or(&occ).iter().enumerate() {
                 self.unshot[first + k] += *c;
             }
             self.file(p, source, occ, unocc, power);
@@ -1544,6 +1557,44 @@ mod tests {
         for p in 0..6 {
             let m = patch_mean(&sol, &total, p);
             assert!((m - expect).abs() < 0.02 * expect, "face {p}: {m} vs {expect}");
+        }
+    }
+
+    /// A spot's cone on a floor meshed coarsely against it: the light the floor
+    /// passes on is its reflectance times all the spot emits (the closed form of
+    /// `light_power`), to 0.6 % (0.5 % seen), wherever the beam's edges cut the
+    /// elements. With the irradiance at the vertices alone it was off by up to 5.4 %
+    /// here (0.970, 1.003, 0.946 and 0.996 of it).
+    #[test]
+    fn a_spot_on_a_coarse_floor_passes_on_the_power_it_brings() {
+        let rho = 0.6;
+        let corners = [
+            v(-3.0, -3.0, 0.0),
+            v(3.0, -3.0, 0.0),
+            v(3.0, 3.0, 0.0),
+            v(-3.0, 3.0, 0.0),
+        ];
+        for (name, floor) in [
+            ("grid", quad(corners)),
+            ("lattice", crate::testutil::split_quad(corners, 6)),
+        ] {
+            for (x, y, h) in [(0.37, 0.11, 1.0), (-0.9, 0.6, 1.7)] {
+                let lights = vec![Light::Spot {
+                    position: v(x, y, h),
+                    direction: v(0.0, 0.0, -1.0),
+                    intensity: Vec3::splat(10.0),
+                    cutoff_angle: 0.5,
+                    beam_width: 0.35,
+                }];
+                let s = scene(vec![(floor.clone(), Vec3::splat(rho))], lights, &[]);
+                let st = settings(0.3, 16, 0);
+                let sol = solve(&s, &Bvh::build(&s), &st, &Silent).unwrap();
+                let passed = sol.stats.residual / f64::from(rho);
+                assert!(
+                    (passed - 1.0).abs() < 0.006,
+                    "{name} at ({x}, {y}, {h}): {passed}"
+                );
+            }
         }
     }
 }
