@@ -7,10 +7,11 @@
 //! a furnished room those bands add up (the conference room's ceiling lost a tenth of
 //! its light through them). A vertex is *covered* when the ray along its normal and
 //! all but one in eight of a fixed set of 64 rays from its receiving point over its
-//! hemisphere meet a surface within half an element, or meet one from behind: no light reaches it but through
-//! a gap narrower than the mesh resolves (the centimetre between a wall and a window
-//! or light fitting on it, which a vertex near the fitting's edge sees out through
-//! at grazing angles), or it lies inside a closed object (the floor under a box
+//! hemisphere meet a surface within half an element, or meet one from behind: no
+//! light reaches it but through a gap narrower than the mesh resolves (the
+//! centimetre between a wall and a window or light fitting on it, which a vertex
+//! near the fitting's edge sees out through at grazing angles), or it lies inside a
+//! closed object (the floor under a box
 //! resting on it, the wall behind a cabinet; the objects' faces wound outwards, as
 //! Mitsuba's shapes and most models are).
 //! Covered vertices drop out of the interpolation of every element they share with an
@@ -119,34 +120,32 @@ impl RadiosityMesh {
                 hit.t <= reach || (b - a).cross(c - a).dot(dir) > 0.0
             })
         };
-        // A coarse look first, a quarter of the strata per side: the ray nearest the
-        // normal decides alone (a vertex that sees out along its normal is in the
-        // open: one ray for most vertices), all shut is covered, and more than a
-        // quarter open is not (twice the fine set's share: sixteen rays are a rough
-        // count); only what is left takes the fine set.
+        // Rays `from..` of the strata x strata set that are open, counted up to one
+        // past `limit`.
+        let open = |strata: u32, from: u32, limit: u32| {
+            let mut n = 0;
+            for k in from..strata * strata {
+                n += u32::from(!shut(k, strata));
+                if n > limit {
+                    break;
+                }
+            }
+            n
+        };
+        // The ray nearest the normal decides alone: a vertex that sees out along its
+        // normal is in the open (one ray for most vertices). Then a coarse look, half
+        // the strata per side: all shut is covered, more than a quarter open is not
+        // (twice the fine set's share: sixteen rays are a rough count); only what is
+        // left takes the fine set.
         let coarse = STRATA / 2;
-        let mut open = 0;
-        for k in 0..coarse * coarse {
-            if !shut(k, coarse) {
-                open += 1;
-                if k == 0 || open > coarse * coarse / 4 {
-                    return false;
-                }
-            }
+        if !shut(0, coarse) {
+            return false;
         }
-        if open == 0 {
-            return true;
+        match open(coarse, 1, coarse * coarse / 4) {
+            0 => true,
+            n if n > coarse * coarse / 4 => false,
+            _ => open(STRATA, 0, MAX_OPEN) <= MAX_OPEN,
         }
-        let mut open = 0;
-        for k in 0..STRATA * STRATA {
-            if !shut(k, STRATA) {
-                open += 1;
-                if open > MAX_OPEN {
-                    return false;
-                }
-            }
-        }
-        true
     }
 }
 

@@ -352,6 +352,16 @@ fn mean(c: Rgb) -> f32 {
     (c.x + c.y + c.z) / 3.0
 }
 
+/// What a point or spot light brings to a point `x` with normal `n`: irradiance
+/// (I x falloff / r^2 x cos; nothing behind the point or outside the cone) and the
+/// light's position, for the shadow ray. The one rule of a light's shot, at its
+/// vertices ([`Solver::gather`]) and at the points of its projection ([`project`]).
+fn point_light_at(l: &SampledLight, x: Vec3, n: Vec3) -> Option<(Rgb, Vec3)> {
+    let s = l.sample(x, Vec2::ZERO)?;
+    let cos = n.dot(s.dir);
+    (cos > 0.0).then(|| (s.value * cos, s.point))
+}
+
 /// Runs pass 1. `progress` hears the shot fraction of power, in thousandths.
 pub fn solve(
     scene: &Scene,
@@ -767,21 +777,14 @@ impl Solver<'_> {
             .next_power_of_two();
         for (k, sp) in points.iter().enumerate() {
             let d = sp.p - x;
-            let r2 = d.length_squared();
-            if !(r2 > 0.0) {
+            if !(d.length_squared() > 0.0) {
                 continue;
             }
-            let dir = d / r2.sqrt();
             // Radiosity is one-sided: a vertex receives on its front (two-sided
             // surfaces have a back twin with the reversed normal).
             let e = if let Some(l) = light {
-                // Point or spot light: I * falloff / r^2 * cos.
-                let cos_v = n.dot(dir);
-                if cos_v <= 0.0 {
-                    continue;
-                }
-                match l.sample(x, Vec2::ZERO) {
-                    Some(s) => s.value * cos_v,
+                match point_light_at(l, x, n) {
+                    Some((e, _)) => e,
                     None => continue,
                 }
             } else {

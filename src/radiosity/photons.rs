@@ -26,7 +26,7 @@ use crate::mesh::{point_in_polygon, Interp, RadiosityMesh};
 use crate::sampling::{cosine_direction, shot_seed, uniform3, Alias};
 use crate::scene::{Rgb, Scene};
 
-use super::SourceId;
+use super::{mean, SourceId};
 
 /// A piece of a patch's surface, no bigger than an element ([`pieces`]): photons
 /// leave from them, and a light shot's projection samples them.
@@ -76,10 +76,6 @@ pub struct Tracer<'a> {
     /// The lights, prepared, drawn by their powers.
     pub lights: Vec<SampledLight>,
     pub light_pick: Option<Alias>,
-}
-
-fn mean(c: Rgb) -> f32 {
-    (c.x + c.y + c.z) / 3.0
 }
 
 impl<'a> Tracer<'a> {

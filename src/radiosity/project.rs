@@ -25,6 +25,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::photons::{pieces, weights};
+use super::{mean, point_light_at};
 use crate::accel::Accel;
 use crate::emitters::SampledLight;
 use crate::interaction::shadow_ray;
@@ -42,10 +43,6 @@ const MIXED: f32 = 0.5;
 /// So does light at the piece's centre further than this fraction of its brightest
 /// vertex from what the vertices interpolate to there.
 const OFF: f32 = 0.02;
-
-fn mean(c: Rgb) -> f32 {
-    (c.x + c.y + c.z) / 3.0
-}
 
 /// The radiosity each vertex of patch `p` passes on from a point or spot `light`:
 /// `point` holds the reflected radiosity at every mesh vertex (reflectance `rho`
@@ -74,18 +71,15 @@ pub fn project(
     let mut rays = 0u64;
     // The reflected light at `x` on a surface with normal `n`, with its shadow ray.
     let mut at = |x: Vec3, n: Vec3| -> Rgb {
-        light
-            .sample(x, glam::Vec2::ZERO)
-            .and_then(|s| {
-                let cos = n.dot(s.dir);
-                if !(cos > 0.0) {
-                    return None;
-                }
-                rays += 1;
-                let open = !accel.occluded(&shadow_ray(x, n, s.point, None));
-                open.then(|| rho * s.value * cos)
-            })
-            .unwrap_or(Vec3::ZERO)
+        let Some((e, q)) = point_light_at(light, x, n) else {
+            return Vec3::ZERO;
+        };
+        rays += 1;
+        if accel.occluded(&shadow_ray(x, n, q, None)) {
+            Vec3::ZERO
+        } else {
+            rho * e
+        }
     };
     for (i, e) in pieces(mesh, p).iter().enumerate() {
         let c = e.corners;
