@@ -238,13 +238,14 @@ fn run_solve(scene: &Scene, bvh: &Bvh, st: &SolveSettings, quiet: bool) -> Resul
     if !quiet {
         let s = &sol.stats;
         eprintln!(
-            "radtrace: solved: {} patches, {} elements, {} vertices (mesh size {:.4}); {} light + {} patch shots, {} rays, {:.2}% left to {} photons ({} rays); {:.2} s{}",
+            "radtrace: solved: {} patches, {} elements, {} vertices (mesh size {:.4}); {} light + {} patch shots ({} reusing their first), {} rays, {:.2}% left to {} photons ({} rays); {:.2} s{}",
             s.patches,
             s.elements,
             s.vertices,
             st.mesh_size,
             s.light_shots,
             s.patch_shots,
+            s.reused_shots,
             s.rays,
             100.0 * s.residual,
             s.photons,

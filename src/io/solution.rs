@@ -1,15 +1,16 @@
 //! The solution file: the view-independent result of pass 1, saved once and reused
 //! for any view (`radtrace solve`, `radtrace render --solution`).
 //!
-//! # Format (version 4: the mesh leaves covered vertices out of its interpolation, and
-//! the solve settings gained `max_photons`; version 3 gained `photons` and `time_limit`)
+//! # Format (version 5: the solve statistics gained `reused_shots`; version 4: the
+//! mesh leaves covered vertices out of its interpolation, and the solve settings
+//! gained `max_photons`; version 3 gained `photons` and `time_limit`)
 //!
 //! All integers are little-endian.
 //!
 //! | offset | size | what |
 //! | ---: | ---: | --- |
 //! | 0 | 18 | magic: `RADTRACE-SOLUTION\n` |
-//! | 18 | 4 | format version, `u32` (4; version 1 let radiant patches evict lights from the lists) |
+//! | 18 | 4 | format version, `u32` (5; version 1 let radiant patches evict lights from the lists) |
 //! | 22 | 8 | scene fingerprint, `u64` ([`scene_fingerprint`]) |
 //! | 30 | 8 | payload length in bytes, `u64` |
 //! | 38 | 4 | checksum, `u32`: CRC-32 (IEEE) of bytes 18..38 followed by the payload |
@@ -58,7 +59,7 @@ use crate::{Error, Result};
 pub const MAGIC: &[u8; 18] = b"RADTRACE-SOLUTION\n";
 
 /// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 4;
+pub const FORMAT_VERSION: u32 = 5;
 
 /// Bytes before the payload: magic, version, fingerprint, length, checksum.
 const HEADER_LEN: usize = MAGIC.len() + 4 + 8 + 8 + 4;

@@ -36,6 +36,7 @@ use crate::{Error, Result};
 
 mod photons;
 mod project;
+mod transfer;
 
 /// Shadow rays per vertex to a light at least (see `Solver::gather`).
 const FIRST_LIGHT_RAYS: u32 = 2;
@@ -155,7 +156,10 @@ impl Levels {
     /// The set a vertex at `x` starts with: a source seen under solid angle w
     /// (estimated as area / distance^2 from its bounding sphere, at most 2 pi) asks
     /// for `w / 2pi * max` cells; the coarsest set with that many is taken.
-    fn for_vertex(&self, x: Vec3, max: u32) -> &[ShootPoint] {
+    ///
+    /// Returns the index of the set's first cell among all the sets' cells, one set
+    /// after the other, and the set.
+    fn for_vertex(&self, x: Vec3, max: u32) -> (u32, &[ShootPoint]) {
         let d = (x - self.centre).length() - self.radius;
         let want = if d > 0.0 {
             let omega = (self.area / (d * d)).min(2.0 * std::f32::consts::PI);
@@ -163,12 +167,19 @@ impl Levels {
         } else {
             f32::INFINITY
         };
-        self.sets
-            .iter()
-            .find(|s| s.len() as f32 >= want)
-            .or(self.sets.last())
-            .map(Vec::as_slice)
-            .unwrap_or(&[])
+        let mut base = 0;
+        for (i, s) in self.sets.iter().enumerate() {
+            if s.len() as f32 >= want || i + 1 == self.sets.len() {
+                return (base, s);
+            }
+            base += s.len() as u32;
+        }
+        (0, &[])
+    }
+
+    /// The radiosity of every cell of every set, one set after the other.
+    fn radiosity(&self) -> Vec<Rgb> {
+        self.sets.iter().flatten().map(|sp| sp.radiosity).collect()
     }
 }
 
@@ -179,6 +190,10 @@ pub struct SolveStats {
     pub light_shots: u64,
     /// Shots from patches.
     pub patch_shots: u64,
+    /// Patch shots that reused the form factors and visibility of the patch's first
+    /// shot (see `transfer`): no rays.
+    #[serde(default)]
+    pub reused_shots: u64,
     /// Rays cast (shadow rays between shooting points and vertices).
     pub rays: u64,
     /// Mesh elements.
@@ -369,7 +384,7 @@ pub fn solve(
     settings: &SolveSettings,
     progress: &dyn Progress,
 ) -> Result<Solution> {
-    Ok(solve_inner(scene, accel, settings, progress, false)?.0)
+    Ok(solve_inner(scene, accel, settings, progress, false, transfer::BUDGET)?.0)
 }
 
 /// [`solve`], also returning for each patch the sources whose light went into its
@@ -381,7 +396,19 @@ pub(crate) fn solve_traced(
     settings: &SolveSettings,
     progress: &dyn Progress,
 ) -> Result<(Solution, Vec<BTreeSet<SourceId>>)> {
-    solve_inner(scene, accel, settings, progress, true)
+    solve_inner(scene, accel, settings, progress, true, transfer::BUDGET)
+}
+
+/// [`solve`] keeping patch shots within `budget` bytes (0: none kept; see
+/// `transfer`).
+#[cfg(test)]
+pub(crate) fn solve_keeping(
+    scene: &Scene,
+    accel: &dyn Accel,
+    settings: &SolveSettings,
+    budget: usize,
+) -> Result<Solution> {
+    Ok(solve_inner(scene, accel, settings, &crate::progress::Silent, false, budget)?.0)
 }
 
 fn solve_inner(
@@ -390,6 +417,7 @@ fn solve_inner(
     settings: &SolveSettings,
     progress: &dyn Progress,
     trace: bool,
+    keep_bytes: usize,
 ) -> Result<(Solution, Vec<BTreeSet<SourceId>>)> {
     settings.validate()?;
     let start = Instant::now();
@@ -404,6 +432,7 @@ fn solve_inner(
         unshot: vec![Vec3::ZERO; nv],
         lists: vec![Vec::new(); mesh.patches.len()],
         folded: vec![BTreeSet::new(); mesh.patches.len()],
+        kept: transfer::Kept::new(mesh.patches.len(), keep_bytes),
         stats: SolveStats {
             elements: mesh.element_count() as u64,
             vertices: nv as u64,
@@ -462,7 +491,7 @@ fn solve_inner(
         for u in &mut s.unshot[first..first + count] {
             *u = Vec3::ZERO;
         }
-        let touched = s.shoot(SourceId::Patch(best as u32), &levels);
+        let touched = s.shoot_kept(best, &levels);
         s.stats.patch_shots += 1;
         patch_power[best] = 0.0;
         for p in touched {
@@ -499,6 +528,8 @@ struct Solver<'a> {
     /// Per patch, the sources already folded into its general radiosity: they may
     /// never enter its list again (one route per source).
     folded: Vec<BTreeSet<SourceId>>,
+    /// Patch shots kept for the patch's next shot.
+    kept: transfer::Kept,
     stats: SolveStats,
 }
 
@@ -611,14 +642,15 @@ impl Solver<'_> {
         }
     }
 
-    /// About `count` shooting cells of patch `p`, carrying its unshot radiosity.
+    /// About `count` shooting cells of patch `p`, carrying its unshot radiosity. The
+    /// cells are the same at every shot of the patch (only the points in them move),
+    /// dark ones included, so a kept shot's links stay valid (see `transfer`).
     fn patch_points(&self, p: u32, count: u32) -> Vec<ShootPoint> {
         let jitter = self.jitter((self.stats.patch_shots + 1) | u64::from(count) << 48);
         self.mesh
             .shoot_cells(p, count, jitter, &self.unshot)
             .iter()
             .map(|c| ShootPoint::from_cell(c, c.value))
-            .filter(|sp| sp.radiosity.max_element() > 0.0)
             .collect()
     }
 
@@ -737,13 +769,18 @@ impl Solver<'_> {
     /// source of fewer than [`REFINE_RAYS`] cells sampled again with that many
     /// stratified rays. A vertex that sees all or none of a source pays the first
     /// rays only.
+    ///
+    /// From a patch, `links` (if given) receives each cell's form factor and
+    /// visibility found, with the cell's index in the set plus `base`.
+    #[allow(clippy::too_many_arguments)]
     fn gather(
         &self,
-        points: &[ShootPoint],
+        (base, points): (u32, &[ShootPoint]),
         v: &MeshVertex,
         seed: u32,
         light: Option<&SampledLight>,
         first_rays: u32,
+        mut links: Option<&mut Vec<transfer::Link>>,
     ) -> (Rgb, Rgb, u64) {
         let (x, n) = (v.q, v.n);
         // Rays through of `per` to cell `k` (one at a point: a light in space, or a
@@ -780,6 +817,7 @@ impl Solver<'_> {
             if !(d.length_squared() > 0.0) {
                 continue;
             }
+            let mut f = 0.0;
             // Radiosity is one-sided: a vertex receives on its front (two-sided
             // surfaces have a back twin with the reversed normal).
             let e = if let Some(l) = light {
@@ -795,7 +833,7 @@ impl Solver<'_> {
                 if h <= margin {
                     continue;
                 }
-                let f = point_polygon_form_factor(x, n, &sp.poly[..sp.len as usize]);
+                f = point_polygon_form_factor(x, n, &sp.poly[..sp.len as usize]);
                 if !(f > 0.0) {
                     continue;
                 }
@@ -810,17 +848,29 @@ impl Solver<'_> {
             rays += u64::from(per);
             seen |= hits > 0;
             hidden |= hits < per;
-            occ += e * (hits as f32 / per as f32);
+            let vis = hits as f32 / per as f32;
+            occ += e * vis;
+            if let Some(l) = links.as_deref_mut() {
+                l.push(transfer::Link {
+                    cell: base + k as u32,
+                    f,
+                    vis,
+                });
+            }
         }
         if !(seen && hidden) || cells >= REFINE_RAYS as usize {
             return (occ, unocc, rays);
         }
         let per = REFINE_RAYS.div_ceil(cells as u32).next_power_of_two();
         let mut refined = Vec3::ZERO;
-        for &(k, e) in &few[..cells] {
+        for (i, &(k, e)) in few[..cells].iter().enumerate() {
             let (hits, per) = through(k, per, 1);
             rays += u64::from(per);
-            refined += e * (hits as f32 / per as f32);
+            let vis = hits as f32 / per as f32;
+            refined += e * vis;
+            if let Some(l) = links.as_deref_mut() {
+                l[i].vis = vis;
+            }
         }
         (refined, unocc, rays)
     }
@@ -859,48 +909,113 @@ impl Solver<'_> {
             SourceId::Light(_) => FIRST_LIGHT_RAYS,
             SourceId::Patch(_) => 1,
         };
+        // A patch's first shot is kept for its next ones while there is room.
+        let keep = skip_patch.filter(|_| self.kept.has_room());
         let mesh = &self.mesh;
-        let receives =
-            |p: usize| Some(p as u32) != skip_patch && mesh.patches[p].reflectance.max_element() > 0.0;
-        let per_vertex: Vec<(Rgb, Rgb, u64)> = mesh
+        let receives = |p: usize| self.receives(source, p);
+        let mut per_vertex: Vec<(Rgb, Rgb, u64, Vec<transfer::Link>)> = mesh
             .vertices
             .par_iter()
             .enumerate()
             .with_max_len(16)
             .map(|(i, v)| {
+                let mut links = Vec::new();
                 if !receives(v.patch as usize) {
-                    return (Vec3::ZERO, Vec3::ZERO, 0);
+                    return (Vec3::ZERO, Vec3::ZERO, 0, links);
                 }
                 let rho = mesh.patches[v.patch as usize].reflectance;
                 let seed = derive(levels.seed, Stream::Receiver(i as u32));
-                let (o, u, r) =
-                    self.gather(levels.for_vertex(v.q, max), v, seed, sampled.as_ref(), first_rays);
-                (o * rho, u * rho, r)
+                let (o, u, r) = self.gather(
+                    levels.for_vertex(v.q, max),
+                    v,
+                    seed,
+                    sampled.as_ref(),
+                    first_rays,
+                    keep.is_some().then_some(&mut links),
+                );
+                (o * rho, u * rho, r, links)
             })
             .collect();
-        let results = (0..mesh.patches.len()).map(|p| {
-            if !receives(p) {
-                return None;
+        if let Some(p) = keep {
+            if let Some(t) = transfer::Transfer::new(per_vertex.iter_mut().map(|x| std::mem::take(&mut x.3)))
+            {
+                self.kept.keep(p as usize, t);
             }
-            let patch = &mesh.patches[p];
-            let first = patch.first_vertex as usize;
-            let vs = &per_vertex[first..first + patch.vertex_count as usize];
-            let occ: Vec<Rgb> = vs.iter().map(|x| x.0).collect();
-            let unocc: Vec<Rgb> = vs.iter().map(|x| x.1).collect();
-            Some((occ, unocc, vs.iter().map(|x| x.2).sum::<u64>()))
-        });
-        let results: Vec<Option<Received>> = results.collect();
+        }
+        let per_vertex: Vec<(Rgb, Rgb, u64)> = per_vertex.into_iter().map(|x| (x.0, x.1, x.2)).collect();
         // What a point or spot light's shot passes on: the mean over each vertex's
         // surface where its pieces are mixed (see [`project`]).
-        let mut passed = match &sampled {
+        let passed = match &sampled {
             Some(l) => {
                 let point: Vec<Rgb> = per_vertex.iter().map(|x| x.0).collect();
-                let (out, rays) = project::project_all(mesh, self.accel, l, receives, &point, levels.seed);
+                let receives = |p: usize| self.receives(source, p);
+                let (out, rays) =
+                    project::project_all(&self.mesh, self.accel, l, receives, &point, levels.seed);
                 self.stats.rays += rays;
                 out
             }
             None => Vec::new(),
         };
+        self.deliver(source, &per_vertex, passed)
+    }
+
+    /// Whether patch `p` receives light from `source`: not the source itself, and it
+    /// reflects.
+    fn receives(&self, source: SourceId, p: usize) -> bool {
+        source != SourceId::Patch(p as u32) && self.mesh.patches[p].reflectance.max_element() > 0.0
+    }
+
+    /// Shoots patch `p` again through its kept first shot: what every vertex
+    /// receives from the patch's cells as they now are, with the form factors and
+    /// visibility found then. Returns the patches that received light.
+    fn shoot_kept(&mut self, p: usize, levels: &Levels) -> Vec<usize> {
+        let Some(kept) = self.kept.get(p) else {
+            return self.shoot(SourceId::Patch(p as u32), levels);
+        };
+        let source = SourceId::Patch(p as u32);
+        let radiosity = levels.radiosity();
+        let mesh = &self.mesh;
+        let per_vertex: Vec<(Rgb, Rgb, u64)> = mesh
+            .vertices
+            .par_iter()
+            .enumerate()
+            .with_min_len(256)
+            .map(|(i, v)| {
+                if !self.receives(source, v.patch as usize) {
+                    return (Vec3::ZERO, Vec3::ZERO, 0);
+                }
+                let rho = mesh.patches[v.patch as usize].reflectance;
+                let (o, u) = kept.receive(i, &radiosity);
+                (o * rho, u * rho, 0)
+            })
+            .collect();
+        self.stats.reused_shots += 1;
+        self.deliver(source, &per_vertex, Vec::new())
+    }
+
+    /// Files what each vertex received from `source` (occluded, unoccluded, rays
+    /// cast) in the lists or general radiosity and adds it to the unshot radiosity,
+    /// or `passed` on where a point light's projection gave it. Returns the patches
+    /// that received light.
+    fn deliver(
+        &mut self,
+        source: SourceId,
+        per_vertex: &[(Rgb, Rgb, u64)],
+        mut passed: Vec<Option<Vec<Rgb>>>,
+    ) -> Vec<usize> {
+        let results: Vec<Option<Received>> = (0..self.mesh.patches.len())
+            .map(|p| {
+                if !self.receives(source, p) {
+                    return None;
+                }
+                let patch = &self.mesh.patches[p];
+                let first = patch.first_vertex as usize;
+                let vs = &per_vertex[first..first + patch.vertex_count as usize];
+                let occ: Vec<Rgb> = vs.iter().map(|x| x.0).collect();
+                let unocc: Vec<Rgb> = vs.iter().map(|x| x.1).collect();
+                Some((occ, unocc, vs.iter().map(|x| x.2).sum::<u64>()))
+            })
+            .collect();
         let mut touched = Vec::new();
         for (p, r) in results.into_iter().enumerate() {
             let Some((occ, unocc, rays)) = r else { continue };

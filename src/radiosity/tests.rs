@@ -612,3 +612,66 @@ fn a_spot_on_a_coarse_floor_passes_on_the_power_it_brings() {
         }
     }
 }
+
+/// A kept shot sends what the patch's cells now hold through the form factors and
+/// visibility of its first shot: in a closed empty box (everything visible) the same
+/// as shooting again, and with a box inside, the same up to the visibility noise of
+/// one ray per cell.
+#[test]
+fn a_kept_shot_sends_what_a_new_shot_would() {
+    let rho = 0.7;
+    let room = || box_inside(Vec3::ZERO, Vec3::new(2.5, 1.6, 2.0));
+    let light = Light::Spot {
+        position: Vec3::new(1.2, 1.5, 1.0),
+        direction: -Vec3::Y,
+        intensity: Vec3::splat(5.0),
+        cutoff_angle: 0.6,
+        beam_width: 0.45,
+    };
+    let mut st = settings(0.25, 64, 40);
+    st.tolerance = 0.002;
+    let empty = scene(
+        room().into_iter().map(|f| (f, Vec3::splat(rho))).collect(),
+        vec![light.clone()],
+        &[],
+    );
+    let bvh = Bvh::build(&empty);
+    let kept = solve_keeping(&empty, &bvh, &st, transfer::BUDGET).unwrap();
+    let fresh = solve_keeping(&empty, &bvh, &st, 0).unwrap();
+    assert!(kept.stats.reused_shots > 10, "{:?}", kept.stats);
+    assert_eq!(fresh.stats.reused_shots, 0);
+    assert_eq!(kept.stats.patch_shots, fresh.stats.patch_shots);
+    assert!(kept.stats.rays < fresh.stats.rays / 2);
+    let (a, b) = (kept.total(), fresh.total());
+    for (x, y) in a.iter().zip(&b) {
+        assert!(
+            (*x - *y).abs().max_element() <= 1e-4 * y.max_element().max(1e-3),
+            "{x} vs {y}"
+        );
+    }
+
+    let mut shapes = room();
+    for mut f in box_inside(Vec3::new(0.8, 0.0, 0.5), Vec3::new(1.6, 0.7, 1.3)) {
+        f.indices = vec![[0, 2, 1], [0, 3, 2]];
+        f.patches = vec![crate::geometry::Patch::Polygon(vec![0, 3, 2, 1])];
+        shapes.push(f);
+    }
+    let boxed = scene(
+        shapes.into_iter().map(|f| (f, Vec3::splat(rho))).collect(),
+        vec![light],
+        &[],
+    );
+    let bvh = Bvh::build(&boxed);
+    let kept = solve_keeping(&boxed, &bvh, &st, transfer::BUDGET).unwrap();
+    let fresh = solve_keeping(&boxed, &bvh, &st, 0).unwrap();
+    assert!(kept.stats.reused_shots > 10);
+    let (a, b) = (kept.total(), fresh.total());
+    // The ceiling (face 3 of the room) sees the lit floor past the box.
+    let ceiling = 3;
+    let (ma, mb) = (patch_mean(&kept, &a, ceiling), patch_mean(&fresh, &b, ceiling));
+    assert!(mb > 0.05, "the ceiling is lit: {mb}");
+    assert!(
+        (ma / mb - 1.0).abs() < 0.01,
+        "ceiling {ma} kept vs {mb} shot again"
+    );
+}

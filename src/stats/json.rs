@@ -65,6 +65,8 @@ pub struct SolveFigures {
     pub light_shots: u64,
     /// Shots from patches.
     pub patch_shots: u64,
+    /// Patch shots that reused the patch's first shot (no rays).
+    pub reused_shots: u64,
     /// Rays cast.
     pub rays: u64,
     /// Power emitted by the lights.
@@ -98,6 +100,7 @@ impl SolveFigures {
             shots: s.light_shots + s.patch_shots,
             light_shots: s.light_shots,
             patch_shots: s.patch_shots,
+            reused_shots: s.reused_shots,
             rays: s.rays,
             emitted_power: s.emitted_power,
             residual: s.residual,

@@ -1,0 +1,163 @@
+//! What a patch's shot sends to each vertex, kept for the patch's next shot.
+//!
+//! Progressive refinement shoots the large patches of a room again and again: each
+//! time the others have sent them more light (the paper room's walls are shot three
+//! or four times, 14 of its 20 patch shots). The cells of a patch, their form factors
+//! to every vertex and the visibility its rays found do not change between those
+//! shots; only the radiosity on the cells does. So the first shot of a patch keeps,
+//! per receiving vertex, each cell's form factor and its form factor times the
+//! visibility found, and a later shot of the patch is a sum of products over them
+//! (no rays). A kept shot costs 8 bytes per link from a cell to a vertex; shots are
+//! kept while all of them fit in [`BUDGET`] bytes, so memory stays bounded whatever
+//! the scene (the paper room keeps its shots in 16 MB), and a patch shot after that
+//! casts its rays as before.
+
+/// Bytes all kept shots may take together.
+pub const BUDGET: usize = 256 << 20;
+
+/// One cell as one vertex saw it, as the shot finds it.
+#[derive(Debug, Clone, Copy)]
+pub struct Link {
+    /// The cell: its index in the shot's sets of cells, one after the other.
+    pub cell: u32,
+    /// Its unoccluded form factor to the vertex.
+    pub f: f32,
+    /// The fraction of its shadow rays that reached it.
+    pub vis: f32,
+}
+
+/// A link as kept: the visibility in units of 2^-15 (exact for the fractions of up
+/// to 2^15 rays a shot casts to a cell).
+#[derive(Debug, Clone, Copy)]
+struct Packed {
+    f: f32,
+    cell: u16,
+    vis: u16,
+}
+
+const VIS_ONE: f32 = 32768.0;
+
+/// The links of one shot, per vertex.
+pub struct Transfer {
+    /// Vertex `i`'s links are `links[start[i]..start[i + 1]]`.
+    start: Vec<u32>,
+    links: Vec<Packed>,
+}
+
+impl Transfer {
+    /// Gathers the links of each vertex (in vertex order). `None` when the shot has
+    /// more links than a `u32` counts or more cells than a `u16` does.
+    pub fn new(per_vertex: impl ExactSizeIterator<Item = Vec<Link>>) -> Option<Self> {
+        let mut start = Vec::with_capacity(per_vertex.len() + 1);
+        start.push(0);
+        let mut links = Vec::new();
+        for v in per_vertex {
+            for l in v {
+                links.push(Packed {
+                    f: l.f,
+                    cell: u16::try_from(l.cell).ok()?,
+                    vis: (l.vis.clamp(0.0, 1.0) * VIS_ONE).round() as u16,
+                });
+            }
+            start.push(u32::try_from(links.len()).ok()?);
+        }
+        Some(Transfer { start, links })
+    }
+
+    /// Bytes it takes.
+    pub fn bytes(&self) -> usize {
+        self.start.len() * std::mem::size_of::<u32>() + self.links.len() * std::mem::size_of::<Packed>()
+    }
+
+    /// What vertex `i` receives when the cells send `radiosity` (indexed as
+    /// [`Link::cell`]): (occluded, unoccluded) irradiance.
+    pub fn receive(&self, i: usize, radiosity: &[glam::Vec3]) -> (glam::Vec3, glam::Vec3) {
+        let links = &self.links[self.start[i] as usize..self.start[i + 1] as usize];
+        links
+            .iter()
+            .fold((glam::Vec3::ZERO, glam::Vec3::ZERO), |(o, u), l| {
+                let bf = radiosity[l.cell as usize] * l.f;
+                (o + bf * (f32::from(l.vis) / VIS_ONE), u + bf)
+            })
+    }
+}
+
+/// The kept shots, per patch, within [`BUDGET`].
+pub struct Kept {
+    shots: Vec<Option<Transfer>>,
+    bytes: usize,
+    budget: usize,
+}
+
+impl Kept {
+    /// Room for the shots of `patches` patches within `budget` bytes.
+    pub fn new(patches: usize, budget: usize) -> Self {
+        Kept {
+            shots: (0..patches).map(|_| None).collect(),
+            bytes: 0,
+            budget,
+        }
+    }
+
+    /// The kept shot of patch `p`.
+    pub fn get(&self, p: usize) -> Option<&Transfer> {
+        self.shots.get(p).and_then(Option::as_ref)
+    }
+
+    /// Whether a shot can still be kept at all.
+    pub fn has_room(&self) -> bool {
+        self.bytes < self.budget
+    }
+
+    /// Keeps `t` as patch `p`'s shot if it fits in what is left of the budget.
+    pub fn keep(&mut self, p: usize, t: Transfer) {
+        let b = t.bytes();
+        if self.bytes + b <= self.budget && p < self.shots.len() {
+            self.bytes += b;
+            self.shots[p] = Some(t);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    fn link(cell: u32, f: f32, vis: f32) -> Link {
+        Link { cell, f, vis }
+    }
+
+    #[test]
+    fn a_vertex_receives_the_sum_over_its_own_links() {
+        let t = Transfer::new(
+            vec![
+                vec![link(0, 0.5, 0.5), link(2, 0.1, 1.0)],
+                vec![],
+                vec![link(1, 0.2, 0.0)],
+            ]
+            .into_iter(),
+        )
+        .unwrap();
+        let b = [Vec3::splat(2.0), Vec3::new(1.0, 2.0, 3.0), Vec3::splat(10.0)];
+        // 2 * 0.25 + 10 * 0.1 = 1.5 occluded; 2 * 0.5 + 10 * 0.1 = 2 unoccluded.
+        assert_eq!(t.receive(0, &b), (Vec3::splat(1.5), Vec3::splat(2.0)));
+        assert_eq!(t.receive(1, &b), (Vec3::ZERO, Vec3::ZERO));
+        assert_eq!(t.receive(2, &b), (Vec3::ZERO, Vec3::new(0.2, 0.4, 0.6)));
+        assert_eq!(t.bytes(), 4 * 4 + 3 * 8);
+        assert!(Transfer::new(vec![vec![link(1 << 16, 0.1, 1.0)]].into_iter()).is_none());
+    }
+
+    #[test]
+    fn shots_are_kept_only_within_the_budget() {
+        let one = || Transfer::new(vec![vec![link(0, 1.0, 1.0)]].into_iter()).unwrap();
+        let size = one().bytes();
+        let mut kept = Kept::new(3, 2 * size);
+        kept.keep(0, one());
+        kept.keep(1, one());
+        assert!(!kept.has_room());
+        kept.keep(2, one());
+        assert!(kept.get(0).is_some() && kept.get(1).is_some());
+        assert!(kept.get(2).is_none(), "a third shot is past the budget");
+    }
+}
