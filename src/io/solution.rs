@@ -740,7 +740,7 @@ mod tests {
 
         // The header, field by field.
         assert_eq!(&bytes[..18], b"RADTRACE-SOLUTION\n");
-        assert_eq!(&bytes[18..22], &[4, 0, 0, 0]);
+        assert_eq!(&bytes[18..22], &[5, 0, 0, 0]);
         assert_eq!(
             u64::from_le_bytes(bytes[22..30].try_into().unwrap()),
             scene_fingerprint(scene)
@@ -940,12 +940,12 @@ mod tests {
         bytes[18..22].copy_from_slice(&3u32.to_le_bytes());
         let msg = load_err(dir.path(), "v3.rts", &bytes);
         assert!(
-            msg.ends_with("made by another version of radtrace (format 3, this one reads 4)"),
+            msg.ends_with("made by another version of radtrace (format 3, this one reads 5)"),
             "{msg}"
         );
         // Even with nothing after the version field.
         let msg = load_err(dir.path(), "v7.rts", &[&MAGIC[..], &7u32.to_le_bytes()].concat());
-        assert!(msg.contains("(format 7, this one reads 4)"), "{msg}");
+        assert!(msg.contains("(format 7, this one reads 5)"), "{msg}");
     }
 
     #[test]

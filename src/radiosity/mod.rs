@@ -7,9 +7,10 @@
 //! cell and shadow rays to it (Wallace et al. 1989); a vertex takes as many cells as
 //! the solid angle it sees the source under asks for (`Levels`), so its rays follow
 //! the source's size and distance, at least two rays to a light, and sixteen where a
-//! source of few cells is partly hidden (`Solver::gather`). What the
-//! shots leave unshot is carried by photons (module `photons`), whose cost follows the rays
-//! they cast. Each patch keeps a list of at most `n` sources whose
+//! source of few cells is partly hidden (`Solver::gather`). A patch shot again
+//! reuses the form factors and visibility of its first shot and casts no rays
+//! (module `transfer`). What the shots leave unshot is carried by photons (module
+//! `photons`), whose cost follows the rays they cast. Each patch keeps a list of at most `n` sources whose
 //! contributions it stores separately, per vertex, both occluded and unoccluded; all
 //! other light goes into the vertex's *general radiosity*. A source that drops out of a
 //! list is folded into the general radiosity of that patch, so every source reaches a
@@ -491,7 +492,7 @@ fn solve_inner(
         for u in &mut s.unshot[first..first + count] {
             *u = Vec3::ZERO;
         }
-        let touched = s.shoot_kept(best, &levels);
+        let touched = s.shoot_patch(best, &levels);
         s.stats.patch_shots += 1;
         patch_power[best] = 0.0;
         for p in touched {
@@ -965,10 +966,11 @@ impl Solver<'_> {
         source != SourceId::Patch(p as u32) && self.mesh.patches[p].reflectance.max_element() > 0.0
     }
 
-    /// Shoots patch `p` again through its kept first shot: what every vertex
-    /// receives from the patch's cells as they now are, with the form factors and
-    /// visibility found then. Returns the patches that received light.
-    fn shoot_kept(&mut self, p: usize, levels: &Levels) -> Vec<usize> {
+    /// Shoots patch `p` from its cells `levels`: through its kept first shot if it
+    /// has one (what every vertex receives from the cells as they now are, with the
+    /// form factors and visibility found then; no rays), else with rays
+    /// ([`Self::shoot`]). Returns the patches that received light.
+    fn shoot_patch(&mut self, p: usize, levels: &Levels) -> Vec<usize> {
         let Some(kept) = self.kept.get(p) else {
             return self.shoot(SourceId::Patch(p as u32), levels);
         };
