@@ -12,7 +12,7 @@
 
 use glam::{Vec2, Vec3};
 
-use crate::scene::{Light, Rgb, Scene};
+use crate::scene::{mean, Light, Rgb, Scene};
 
 /// A point on a light source as seen from a receiver.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -429,7 +429,7 @@ pub fn hilbert_d2xy(order: u32, d: u64) -> (u32, u32) {
 /// Radiant power of a light (mean over RGB), in closed form.
 pub fn light_power(scene: &Scene, light: &Light) -> f64 {
     match *light {
-        Light::Point { intensity, .. } => 4.0 * std::f64::consts::PI * mean_rgb(intensity) as f64,
+        Light::Point { intensity, .. } => 4.0 * std::f64::consts::PI * mean(intensity) as f64,
         Light::Spot {
             intensity,
             cutoff_angle,
@@ -446,16 +446,12 @@ pub fn light_power(scene: &Scene, light: &Light) -> f64 {
             } else {
                 1.0 - c.cos()
             };
-            2.0 * std::f64::consts::PI * solid * mean_rgb(intensity) as f64
+            2.0 * std::f64::consts::PI * solid * mean(intensity) as f64
         }
         Light::Area { shape, radiance } => {
-            std::f64::consts::PI * mean_rgb(radiance) as f64 * scene.shapes[shape as usize].mesh.area() as f64
+            std::f64::consts::PI * mean(radiance) as f64 * scene.shapes[shape as usize].mesh.area() as f64
         }
     }
-}
-
-fn mean_rgb(c: Rgb) -> f32 {
-    (c.x + c.y + c.z) / 3.0
 }
 
 #[cfg(test)]

@@ -29,7 +29,7 @@ use crate::emitters::light_power;
 use crate::emitters::{AreaEmitter, SampledLight};
 use crate::geometry::Subtense;
 use crate::radiosity::{ListEntry, Solution, SourceId};
-use crate::scene::{Light, Rgb, Scene};
+use crate::scene::{mean, Light, Rgb, Scene};
 use crate::{Error, Result};
 
 /// How the direct light is computed (the paper's renderers as modes of one code).
@@ -294,10 +294,6 @@ pub fn patch_name(scene: &Scene, sol: &Solution, p: u32) -> String {
         "{} patch {}{side}",
         scene.shapes[mp.shape as usize].name, mp.local
     )
-}
-
-fn mean(c: Rgb) -> f32 {
-    (c.x + c.y + c.z) / 3.0
 }
 
 /// The triangles of a source (empty for point and spot lights); a radiant patch as its

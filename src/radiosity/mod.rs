@@ -32,7 +32,7 @@ use crate::interaction::{ray_epsilon, shadow_ray};
 use crate::mesh::{point_in_polygon, MeshVertex, RadiosityMesh};
 use crate::progress::Progress;
 use crate::sampling::{derive, stratum, Alias, Stream};
-use crate::scene::{Light, Rgb, Scene};
+use crate::scene::{mean, Light, Rgb, Scene};
 use crate::{Error, Result};
 
 mod photons;
@@ -362,10 +362,6 @@ fn angle(s: f32, c: f32) -> f32 {
     } else {
         t
     }
-}
-
-fn mean(c: Rgb) -> f32 {
-    (c.x + c.y + c.z) / 3.0
 }
 
 /// What a point or spot light brings to a point `x` with normal `n`: irradiance

@@ -6,13 +6,10 @@ use glam::Vec3;
 use super::*;
 use crate::accel::Bvh;
 use crate::radiosity::{solve, SolveSettings, SourceId};
+use crate::scene::mean;
 use crate::selection::tests::solve_settings;
 use crate::selection::{select, select_unchecked, Pick, SelectSettings};
 use crate::testutil::{open_scene, room};
-
-fn mean(c: Vec3) -> f32 {
-    (c.x + c.y + c.z) / 3.0
-}
 
 /// Renders without progress bars.
 fn draw(s: &Scene, bvh: &Bvh, st: &Settings, sel: Option<&Selection>) -> Output {

@@ -13,6 +13,12 @@ use crate::geometry::TriMesh;
 /// Linear RGB triplet (reflectance, radiance, intensity...).
 pub type Rgb = Vec3;
 
+/// The mean of a colour's three channels: the one scalar value of a colour wherever
+/// one is needed (power, ranks, Russian roulette, thresholds).
+pub fn mean(c: Rgb) -> f32 {
+    (c.x + c.y + c.z) / 3.0
+}
+
 /// A material, reduced to what the paper's reflection model needs: a diffuse
 /// (Lambertian) part and a perfect mirror part.
 #[derive(Debug, Clone, PartialEq)]
