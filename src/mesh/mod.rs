@@ -20,7 +20,10 @@ use crate::scene::{Light, Rgb, Scene};
 
 mod cover;
 mod lattice;
+mod pieces;
+
 pub use lattice::Lattice;
+pub use pieces::Piece;
 
 /// The parameter domain of one grid.
 #[derive(Debug, Clone, PartialEq)]

@@ -20,26 +20,12 @@ use rayon::prelude::*;
 
 use crate::accel::{Accel, Ray};
 use crate::emitters::SampledLight;
-use crate::geometry::{cuts_for, triangle_pieces};
 use crate::interaction::{offset_from, SurfacePoint};
-use crate::mesh::{point_in_polygon, Interp, RadiosityMesh};
+use crate::mesh::{point_in_polygon, Piece, RadiosityMesh};
 use crate::sampling::{cosine_direction, shot_seed, uniform3, Alias};
 use crate::scene::{Rgb, Scene};
 
 use super::{mean, SourceId};
-
-/// A piece of a patch's surface, no bigger than an element ([`pieces`]): photons
-/// leave from them, and a light shot's projection samples them.
-#[derive(Debug, Clone, Copy)]
-pub struct EmitTri {
-    /// Corners (the exact surface, or an element over it).
-    pub corners: [Vec3; 3],
-    /// The patch.
-    pub patch: u32,
-    /// The element's vertices (`None`: a merged patch's own triangle, whose weights
-    /// come from its lattice).
-    pub verts: Option<[u32; 3]>,
-}
 
 /// Photons in one chunk (the unit of determinism).
 const CHUNK: u64 = 1024;
@@ -68,7 +54,7 @@ pub struct Tracer<'a> {
     pub unshot: &'a [Rgb],
     pub seed: u64,
     /// Surface pieces with unshot light, drawn by their power.
-    pub emit: Vec<EmitTri>,
+    pub emit: Vec<Piece>,
     pub emit_pick: Option<Alias>,
     /// Photons from patches, and from lights (only with mirrors in the scene).
     pub patch_photons: u64,
@@ -79,12 +65,12 @@ pub struct Tracer<'a> {
 }
 
 impl<'a> Tracer<'a> {
-    /// The radiant pieces of every patch with unshot light ([`pieces`]), and a bound
-    /// on each one's power: its area times the largest unshot radiosity of the
-    /// vertices that weigh in at its corners and centre (pieces are no bigger than a
-    /// cell, so no lit cell inside a large input triangle is left without photons:
-    /// that light would be lost).
-    pub fn emitters(mesh: &RadiosityMesh, unshot: &[Rgb]) -> (Vec<EmitTri>, Vec<f64>) {
+    /// The radiant pieces of every patch with unshot light
+    /// ([`RadiosityMesh::pieces`]), and a bound on each one's power: its area times the
+    /// largest unshot radiosity of the vertices that weigh in at its corners and
+    /// centre (pieces are no bigger than a cell, so no lit cell inside a large input
+    /// triangle is left without photons: that light would be lost).
+    pub fn emitters(mesh: &RadiosityMesh, unshot: &[Rgb]) -> (Vec<Piece>, Vec<f64>) {
         let mut emit = Vec::new();
         let mut power = Vec::new();
         for (p, mp) in mesh.patches.iter().enumerate() {
@@ -95,12 +81,12 @@ impl<'a> Tracer<'a> {
             if !any {
                 continue;
             }
-            for e in pieces(mesh, p as u32) {
+            for e in mesh.pieces(p as u32) {
                 let c = e.corners;
                 let hi = [c[0], c[1], c[2], (c[0] + c[1] + c[2]) / 3.0]
                     .iter()
                     .map(|&x| {
-                        let w = weights(mesh, &e, x);
+                        let w = mesh.weights_on(&e, x);
                         (0..4)
                             .map(|k| mean(unshot[w.vertices[k] as usize]))
                             .fold(0.0, f32::max)
@@ -140,7 +126,7 @@ impl<'a> Tracer<'a> {
                 let area = 0.5 * n.length();
                 let n = n.normalize_or(Vec3::Z);
                 let prob = table.probability(k);
-                let w = weights(self.mesh, e, x);
+                let w = self.mesh.weights_on(e, x);
                 let b_unshot = w.apply(self.unshot);
                 // Radiosity B over area A sends B A; per photon over its probability.
                 let power = b_unshot * (area / (prob as f32 * self.patch_photons as f32));
@@ -301,57 +287,6 @@ impl<'a> Tracer<'a> {
 /// Whether any surface of the scene reflects like a mirror.
 pub fn has_mirrors(scene: &Scene) -> bool {
     scene.bsdfs.iter().any(|b| b.kind.has_mirror())
-}
-
-/// The surface of patch `p` in triangles no bigger than an element: a merged
-/// patch's own triangles cut to its lattice's cell (weights from the lattice), else
-/// its element triangles (weights barycentric).
-pub fn pieces(mesh: &RadiosityMesh, p: u32) -> Vec<EmitTri> {
-    let mp = &mesh.patches[p as usize];
-    match mp.grids.first().map(|g| &g.domain) {
-        Some(crate::mesh::Domain::Lattice(l)) if mp.grids.len() == 1 => l
-            .surface
-            .iter()
-            .flat_map(|t| triangle_pieces(*t, cuts_for(t, l.cell, 256)))
-            .map(|corners| EmitTri {
-                corners,
-                patch: p,
-                verts: None,
-            })
-            .collect(),
-        _ => mesh
-            .element_triangles(p)
-            .into_iter()
-            .map(|t| EmitTri {
-                corners: t.map(|v| mesh.vertices[v as usize].p),
-                patch: p,
-                verts: Some(t),
-            })
-            .collect(),
-    }
-}
-
-/// The interpolation weights at point `x` of piece `e` (see [`pieces`]).
-pub fn weights(mesh: &RadiosityMesh, e: &EmitTri, x: Vec3) -> Interp {
-    let mp = &mesh.patches[e.patch as usize];
-    match (e.verts, mp.grids.first().map(|g| &g.domain)) {
-        (None, Some(crate::mesh::Domain::Lattice(l))) => l.interp(mp.grids[0].first_vertex, x),
-        (Some(t), _) => {
-            let c = e.corners;
-            let n = (c[1] - c[0]).cross(c[2] - c[0]);
-            let l2 = n.length_squared().max(1e-30);
-            let b1 = (x - c[0]).cross(c[2] - c[0]).dot(n) / l2;
-            let b2 = (c[1] - c[0]).cross(x - c[0]).dot(n) / l2;
-            Interp {
-                vertices: [t[0], t[1], t[2], t[0]],
-                weights: [1.0 - b1 - b2, b1, b2, 0.0],
-            }
-        }
-        (None, _) => Interp {
-            vertices: [mp.first_vertex; 4],
-            weights: [0.0; 4],
-        },
-    }
 }
 
 #[cfg(test)]

@@ -24,7 +24,6 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::photons::{pieces, weights};
 use super::{mean, point_light_at};
 use crate::accel::Accel;
 use crate::emitters::SampledLight;
@@ -81,12 +80,12 @@ pub fn project(
             rho * e
         }
     };
-    for (i, e) in pieces(mesh, p).iter().enumerate() {
+    for (i, e) in mesh.pieces(p).iter().enumerate() {
         let c = e.corners;
         let centre = (c[0] + c[1] + c[2]) / 3.0;
         let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
         for x in [c[0], c[1], c[2], centre] {
-            let w = weights(mesh, e, x);
+            let w = mesh.weights_on(e, x);
             for k in 0..4 {
                 if w.weights[k] > 0.0 {
                     let b = mean(point[w.vertices[k] as usize]);
@@ -114,7 +113,7 @@ pub fn project(
         // middles of its edges tell.
         let mixed = if hi > 0.0 {
             lo < MIXED * hi || {
-                let guess = mean(weights(mesh, e, centre).apply(point));
+                let guess = mean(mesh.weights_on(e, centre).apply(point));
                 (mean(at(centre, n)) - guess).abs() > OFF * hi
             }
         } else {
@@ -133,7 +132,7 @@ pub fn project(
         let a = area / POINTS as f32;
         for j in 0..POINTS {
             let x = point_in_polygon(&c, stratum(seed, (i as u32) << 7, j, POINTS));
-            let w = weights(mesh, e, x);
+            let w = mesh.weights_on(e, x);
             let b = at(x, n);
             for k in 0..4 {
                 let wk = w.weights[k];

@@ -1,0 +1,73 @@
+//! The surface of a patch in triangles no bigger than an element, with the
+//! interpolation weights at any point of them: where photons leave a radiant patch
+//! from, and where a light shot's projection samples a receiving patch.
+
+use glam::Vec3;
+
+use super::{Domain, Interp, RadiosityMesh};
+use crate::geometry::{cuts_for, triangle_pieces};
+
+/// A piece of a patch's surface, no bigger than an element ([`RadiosityMesh::pieces`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Piece {
+    /// Corners (the exact surface, or an element over it).
+    pub corners: [Vec3; 3],
+    /// The patch.
+    pub patch: u32,
+    /// The element's vertices (`None`: a merged patch's own triangle, whose weights
+    /// come from its lattice).
+    pub verts: Option<[u32; 3]>,
+}
+
+impl RadiosityMesh {
+    /// The surface of patch `p` in triangles no bigger than an element: a merged
+    /// patch's own triangles cut to its lattice's cell (weights from the lattice), else
+    /// its element triangles (weights barycentric).
+    pub fn pieces(&self, p: u32) -> Vec<Piece> {
+        let mp = &self.patches[p as usize];
+        match mp.grids.first().map(|g| &g.domain) {
+            Some(Domain::Lattice(l)) if mp.grids.len() == 1 => l
+                .surface
+                .iter()
+                .flat_map(|t| triangle_pieces(*t, cuts_for(t, l.cell, 256)))
+                .map(|corners| Piece {
+                    corners,
+                    patch: p,
+                    verts: None,
+                })
+                .collect(),
+            _ => self
+                .element_triangles(p)
+                .into_iter()
+                .map(|t| Piece {
+                    corners: t.map(|v| self.vertices[v as usize].p),
+                    patch: p,
+                    verts: Some(t),
+                })
+                .collect(),
+        }
+    }
+
+    /// The interpolation weights at point `x` of piece `e` (see [`Self::pieces`]).
+    pub fn weights_on(&self, e: &Piece, x: Vec3) -> Interp {
+        let mp = &self.patches[e.patch as usize];
+        match (e.verts, mp.grids.first().map(|g| &g.domain)) {
+            (None, Some(Domain::Lattice(l))) => l.interp(mp.grids[0].first_vertex, x),
+            (Some(t), _) => {
+                let c = e.corners;
+                let n = (c[1] - c[0]).cross(c[2] - c[0]);
+                let l2 = n.length_squared().max(1e-30);
+                let b1 = (x - c[0]).cross(c[2] - c[0]).dot(n) / l2;
+                let b2 = (c[1] - c[0]).cross(x - c[0]).dot(n) / l2;
+                Interp {
+                    vertices: [t[0], t[1], t[2], t[0]],
+                    weights: [1.0 - b1 - b2, b1, b2, 0.0],
+                }
+            }
+            (None, _) => Interp {
+                vertices: [mp.first_vertex; 4],
+                weights: [0.0; 4],
+            },
+        }
+    }
+}
