@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 
-use super::{Domain, Interp, RadiosityMesh};
+use super::{barycentric, Domain, Interp, RadiosityMesh};
 use crate::geometry::{cuts_for, triangle_pieces};
 
 /// A piece of a patch's surface, no bigger than an element ([`RadiosityMesh::pieces`]).
@@ -54,14 +54,10 @@ impl RadiosityMesh {
         match (e.verts, mp.grids.first().map(|g| &g.domain)) {
             (None, Some(Domain::Lattice(l))) => l.interp(mp.grids[0].first_vertex, x),
             (Some(t), _) => {
-                let c = e.corners;
-                let n = (c[1] - c[0]).cross(c[2] - c[0]);
-                let l2 = n.length_squared().max(1e-30);
-                let b1 = (x - c[0]).cross(c[2] - c[0]).dot(n) / l2;
-                let b2 = (c[1] - c[0]).cross(x - c[0]).dot(n) / l2;
+                let b = barycentric(e.corners, x);
                 Interp {
                     vertices: [t[0], t[1], t[2], t[0]],
-                    weights: [1.0 - b1 - b2, b1, b2, 0.0],
+                    weights: [1.0 - b.x - b.y, b.x, b.y, 0.0],
                 }
             }
             (None, _) => Interp {

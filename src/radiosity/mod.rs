@@ -514,6 +514,10 @@ fn solve_inner(
 /// vertex, and the rays cast.
 type Received = (Vec<Rgb>, Vec<Rgb>, u64);
 
+/// What one vertex received from a shot: occluded and unoccluded radiosity, and the
+/// rays cast.
+type AtVertex = (Rgb, Rgb, u64);
+
 struct Solver<'a> {
     scene: &'a Scene,
     accel: &'a dyn Accel,
@@ -778,7 +782,7 @@ impl Solver<'_> {
         light: Option<&SampledLight>,
         first_rays: u32,
         mut links: Option<&mut Vec<transfer::Link>>,
-    ) -> (Rgb, Rgb, u64) {
+    ) -> AtVertex {
         let (x, n) = (v.q, v.n);
         // Rays through of `per` to cell `k` (one at a point: a light in space, or a
         // curved cell's point), with the one shadow-ray rule of both passes: to a light
@@ -909,16 +913,15 @@ impl Solver<'_> {
         // A patch's first shot is kept for its next ones while there is room.
         let keep = skip_patch.filter(|_| self.kept.has_room());
         let mesh = &self.mesh;
-        let receives = |p: usize| self.receives(source, p);
-        let mut per_vertex: Vec<(Rgb, Rgb, u64, Vec<transfer::Link>)> = mesh
+        let (per_vertex, links): (Vec<AtVertex>, Vec<Vec<transfer::Link>>) = mesh
             .vertices
             .par_iter()
             .enumerate()
             .with_max_len(16)
             .map(|(i, v)| {
                 let mut links = Vec::new();
-                if !receives(v.patch as usize) {
-                    return (Vec3::ZERO, Vec3::ZERO, 0, links);
+                if !self.receives(source, v.patch as usize) {
+                    return ((Vec3::ZERO, Vec3::ZERO, 0), links);
                 }
                 let rho = mesh.patches[v.patch as usize].reflectance;
                 let seed = derive(levels.seed, Stream::Receiver(i as u32));
@@ -930,24 +933,27 @@ impl Solver<'_> {
                     first_rays,
                     keep.is_some().then_some(&mut links),
                 );
-                (o * rho, u * rho, r, links)
+                ((o * rho, u * rho, r), links)
             })
-            .collect();
+            .unzip();
         if let Some(p) = keep {
-            if let Some(t) = transfer::Transfer::new(per_vertex.iter_mut().map(|x| std::mem::take(&mut x.3)))
-            {
+            if let Some(t) = transfer::Transfer::new(links.into_iter()) {
                 self.kept.keep(p as usize, t);
             }
         }
-        let per_vertex: Vec<(Rgb, Rgb, u64)> = per_vertex.into_iter().map(|x| (x.0, x.1, x.2)).collect();
         // What a point or spot light's shot passes on: the mean over each vertex's
         // surface where its pieces are mixed (see [`project`]).
         let passed = match &sampled {
             Some(l) => {
                 let point: Vec<Rgb> = per_vertex.iter().map(|x| x.0).collect();
-                let receives = |p: usize| self.receives(source, p);
-                let (out, rays) =
-                    project::project_all(&self.mesh, self.accel, l, receives, &point, levels.seed);
+                let (out, rays) = project::project_all(
+                    &self.mesh,
+                    self.accel,
+                    l,
+                    |p| self.receives(source, p),
+                    &point,
+                    levels.seed,
+                );
                 self.stats.rays += rays;
                 out
             }
@@ -973,7 +979,7 @@ impl Solver<'_> {
         let source = SourceId::Patch(p as u32);
         let radiosity = levels.radiosity();
         let mesh = &self.mesh;
-        let per_vertex: Vec<(Rgb, Rgb, u64)> = mesh
+        let per_vertex: Vec<AtVertex> = mesh
             .vertices
             .par_iter()
             .enumerate()
@@ -998,7 +1004,7 @@ impl Solver<'_> {
     fn deliver(
         &mut self,
         source: SourceId,
-        per_vertex: &[(Rgb, Rgb, u64)],
+        per_vertex: &[AtVertex],
         mut passed: Vec<Option<Vec<Rgb>>>,
     ) -> Vec<usize> {
         let results: Vec<Option<Received>> = (0..self.mesh.patches.len())

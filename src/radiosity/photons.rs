@@ -23,9 +23,9 @@ use crate::emitters::SampledLight;
 use crate::interaction::{offset_from, SurfacePoint};
 use crate::mesh::{point_in_polygon, Piece, RadiosityMesh};
 use crate::sampling::{cosine_direction, shot_seed, uniform3, Alias};
-use crate::scene::{Rgb, Scene};
+use crate::scene::{mean, Rgb, Scene};
 
-use super::{mean, SourceId};
+use super::SourceId;
 
 /// Photons in one chunk (the unit of determinism).
 const CHUNK: u64 = 1024;

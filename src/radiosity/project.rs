@@ -24,13 +24,13 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::{mean, point_light_at};
+use super::point_light_at;
 use crate::accel::Accel;
 use crate::emitters::SampledLight;
 use crate::interaction::shadow_ray;
 use crate::mesh::{point_in_polygon, RadiosityMesh};
 use crate::sampling::{derive, stratum, Stream};
-use crate::scene::Rgb;
+use crate::scene::{mean, Rgb};
 
 /// Stratified points on a piece whose vertices disagree.
 pub const POINTS: u32 = 16;
@@ -84,8 +84,9 @@ pub fn project(
         let c = e.corners;
         let centre = (c[0] + c[1] + c[2]) / 3.0;
         let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
-        for x in [c[0], c[1], c[2], centre] {
-            let w = mesh.weights_on(e, x);
+        // The weights at the corners and the centre (the last).
+        let ws = [c[0], c[1], c[2], centre].map(|x| mesh.weights_on(e, x));
+        for w in &ws {
             for k in 0..4 {
                 if w.weights[k] > 0.0 {
                     let b = mean(point[w.vertices[k] as usize]);
@@ -113,7 +114,7 @@ pub fn project(
         // middles of its edges tell.
         let mixed = if hi > 0.0 {
             lo < MIXED * hi || {
-                let guess = mean(mesh.weights_on(e, centre).apply(point));
+                let guess = mean(ws[3].apply(point));
                 (mean(at(centre, n)) - guess).abs() > OFF * hi
             }
         } else {

@@ -8,9 +8,10 @@
 //! per receiving vertex, each cell's form factor and its form factor times the
 //! visibility found, and a later shot of the patch is a sum of products over them
 //! (no rays). A kept shot costs 8 bytes per link from a cell to a vertex; shots are
-//! kept while all of them fit in [`BUDGET`] bytes, so memory stays bounded whatever
-//! the scene (the paper room keeps its shots in 16 MB), and a patch shot after that
-//! casts its rays as before.
+//! kept until the first that does not fit in what is left of [`BUDGET`] bytes, so
+//! memory stays bounded whatever the scene (the paper room keeps its shots in 16 MB),
+//! no later shot records links only to drop them, and a patch shot after that casts
+//! its rays as before.
 
 /// Bytes all kept shots may take together.
 pub const BUDGET: usize = 256 << 20;
@@ -109,12 +110,16 @@ impl Kept {
         self.bytes < self.budget
     }
 
-    /// Keeps `t` as patch `p`'s shot if it fits in what is left of the budget.
+    /// Keeps `t` as patch `p`'s shot if it fits in what is left of the budget; if
+    /// it does not, no shot is kept any more (the next ones are as large, and
+    /// recording their links would be work thrown away).
     pub fn keep(&mut self, p: usize, t: Transfer) {
         let b = t.bytes();
         if self.bytes + b <= self.budget && p < self.shots.len() {
             self.bytes += b;
             self.shots[p] = Some(t);
+        } else {
+            self.budget = self.bytes;
         }
     }
 }
@@ -159,5 +164,12 @@ mod tests {
         kept.keep(2, one());
         assert!(kept.get(0).is_some() && kept.get(1).is_some());
         assert!(kept.get(2).is_none(), "a third shot is past the budget");
+
+        // Room left, but not enough for the next shot: none is kept after it.
+        let mut kept = Kept::new(3, size + size / 2);
+        kept.keep(0, one());
+        assert!(kept.has_room());
+        kept.keep(1, one());
+        assert!(kept.get(1).is_none() && !kept.has_room());
     }
 }
