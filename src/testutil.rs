@@ -31,6 +31,16 @@ pub fn box_inside(lo: Vec3, hi: Vec3) -> Vec<TriMesh> {
     ]
 }
 
+/// The six faces of the box `[lo, hi]`, facing outwards (a closed object).
+pub fn box_outside(lo: Vec3, hi: Vec3) -> Vec<TriMesh> {
+    let mut faces = box_inside(lo, hi);
+    for f in &mut faces {
+        f.indices = vec![[0, 2, 1], [0, 3, 2]];
+        f.patches = vec![crate::geometry::Patch::Polygon(vec![0, 3, 2, 1])];
+    }
+    faces
+}
+
 /// A scene of diffuse shapes (mesh, reflectance) and lights; `emitters` lists
 /// (shape, radiance) pairs made area lights.
 pub fn scene(shapes: Vec<(TriMesh, Rgb)>, lights: Vec<Light>, emitters: &[(usize, Rgb)]) -> Scene {

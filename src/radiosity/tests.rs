@@ -2,7 +2,7 @@ use super::*;
 use crate::accel::Bvh;
 use crate::geometry::TriMesh;
 use crate::progress::Silent;
-use crate::testutil::{box_inside, quad, scene, v};
+use crate::testutil::{box_inside, box_outside, quad, scene, v};
 use std::f32::consts::PI;
 
 fn settings(mesh_size: f32, samples: u32, max_shots: u32) -> SolveSettings {
@@ -507,12 +507,7 @@ fn photons_give_the_same_solution_at_one_and_two_threads_and_conserve_energy() {
 fn furnace_with_a_box_resting_on_the_floor_stays_even_up_to_the_box() {
     let rho = 0.5;
     let mut shapes: Vec<TriMesh> = box_inside(Vec3::ZERO, Vec3::new(3.0, 1.5, 2.0));
-    for mut f in box_inside(Vec3::new(1.0, 0.0, 0.6), Vec3::new(2.0, 0.4, 1.4)) {
-        // Outwards: reverse the winding.
-        f.indices = vec![[0, 2, 1], [0, 3, 2]];
-        f.patches = vec![crate::geometry::Patch::Polygon(vec![0, 3, 2, 1])];
-        shapes.push(f);
-    }
+    shapes.extend(box_outside(Vec3::new(1.0, 0.0, 0.6), Vec3::new(2.0, 0.4, 1.4)));
     let emitters: Vec<(usize, Rgb)> = (0..12).map(|i| (i, Vec3::splat(1.0 / PI))).collect();
     let s = scene(
         shapes.into_iter().map(|f| (f, Vec3::splat(rho))).collect(),
@@ -651,11 +646,7 @@ fn a_kept_shot_sends_what_a_new_shot_would() {
     }
 
     let mut shapes = room();
-    for mut f in box_inside(Vec3::new(0.8, 0.0, 0.5), Vec3::new(1.6, 0.7, 1.3)) {
-        f.indices = vec![[0, 2, 1], [0, 3, 2]];
-        f.patches = vec![crate::geometry::Patch::Polygon(vec![0, 3, 2, 1])];
-        shapes.push(f);
-    }
+    shapes.extend(box_outside(Vec3::new(0.8, 0.0, 0.5), Vec3::new(1.6, 0.7, 1.3)));
     let boxed = scene(
         shapes.into_iter().map(|f| (f, Vec3::splat(rho))).collect(),
         vec![light],
