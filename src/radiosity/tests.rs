@@ -222,6 +222,71 @@ fn the_penumbra_of_a_small_light_follows_the_visible_part_of_it() {
     );
 }
 
+/// A 2 x 2 lamp half a unit above a screen's edge, seen from a floor a unit below
+/// it: every floor vertex takes all 64 cells, and the screen's slanted edge crosses
+/// several of them. The cells at the shadow's edge get more rays than one each, so
+/// the visible fraction is close to the exact one (the form factor of the part of the
+/// lamp the screen leaves, by Lambert's formula) at every vertex, not only on
+/// average.
+#[test]
+fn cells_at_a_shadows_edge_are_sampled_again() {
+    let floor = quad([v(-1., -1., 0.), v(1., -1., 0.), v(1., 1., 0.), v(-1., 1., 0.)]);
+    // The screen covers x + 0.3 y < 0 at height 0.5.
+    let screen = quad([
+        v(-3., -3., 0.5),
+        v(-3., 3., 0.5),
+        v(-0.9, 3., 0.5),
+        v(0.9, -3., 0.5),
+    ]);
+    let corners = [v(-1., -1., 1.), v(-1., 1., 1.), v(1., 1., 1.), v(1., -1., 1.)];
+    let s = scene(
+        vec![
+            (floor, Vec3::splat(0.5)),
+            (screen, Vec3::ZERO),
+            (quad(corners), Vec3::ZERO),
+        ],
+        vec![],
+        &[(2, Vec3::ONE)],
+    );
+    let sol = solve(&s, &Bvh::build(&s), &settings(0.05, 64, 0), &Silent).unwrap();
+    let e = &sol.lists[0][0];
+    let first = sol.mesh.patches[0].first_vertex as usize;
+    let up = Vec3::Z;
+    let (mut err, mut count) = (0.0, 0);
+    for (k, (o, u)) in e.occluded.iter().zip(&e.unoccluded).enumerate() {
+        let q = sol.mesh.vertices[first + k].q;
+        // From q, a lamp point p is hidden where the midpoint of q and p is under
+        // the screen: p.x + 0.3 p.y < -(q.x + 0.3 q.y). Clip the lamp to the rest.
+        let g = |p: Vec3| p.x + 0.3 * p.y + q.x + 0.3 * q.y;
+        let mut visible = Vec::new();
+        for i in 0..4 {
+            let (a, b) = (corners[i], corners[(i + 1) % 4]);
+            if g(a) >= 0.0 {
+                visible.push(a);
+            }
+            if (g(a) >= 0.0) != (g(b) >= 0.0) {
+                visible.push(a + (b - a) * (g(a) / (g(a) - g(b))));
+            }
+        }
+        let exact = if visible.len() >= 3 {
+            point_polygon_form_factor(q, up, &visible) / point_polygon_form_factor(q, up, &corners)
+        } else {
+            0.0
+        };
+        if (0.05..0.95).contains(&exact) {
+            err += (o.x / u.x - exact).abs();
+            count += 1;
+        }
+    }
+    let mean = err / count as f32;
+    assert!(count > 300, "{count} vertices in the penumbra");
+    // One ray per cell: 0.015; four at the edge: 0.006.
+    assert!(
+        mean < 0.009,
+        "mean error {mean} of the visible fraction over {count} vertices"
+    );
+}
+
 /// Emitted = absorbed + unshot, in a closed box lit by a point light.
 #[test]
 fn energy_is_conserved_in_a_closed_box() {
@@ -665,4 +730,31 @@ fn a_kept_shot_sends_what_a_new_shot_would() {
         (ma / mb - 1.0).abs() < 0.01,
         "ceiling {ma} kept vs {mb} shot again"
     );
+}
+
+#[test]
+fn cells_touch_where_they_share_a_corner() {
+    let cell = |x: f32, y: f32| {
+        let poly = [
+            v(x, y, 0.),
+            v(x + 1., y, 0.),
+            v(x + 1., y + 1., 0.),
+            v(x, y + 1., 0.),
+        ];
+        ShootPoint {
+            p: poly[0],
+            n: Vec3::Z,
+            poly,
+            len: 4,
+            radiosity: Vec3::ONE,
+            flat: true,
+        }
+    };
+    let cells = [cell(0., 0.), cell(1., 0.), cell(2., 1.), cell(5., 5.)];
+    let t = Touching::new(&cells);
+    assert_eq!(t.of(0), &[1]);
+    assert_eq!(t.of(1), &[0, 2], "a shared corner is enough");
+    assert_eq!(t.of(2), &[1]);
+    assert_eq!(t.of(3), &[] as &[u32]);
+    assert_eq!(t.of(9), &[] as &[u32], "no such cell");
 }
