@@ -48,8 +48,8 @@ const REFINE_RAYS: u32 = 16;
 /// Shadow rays to a cell at a shadow's edge (see `Solver::gather`). One ray per
 /// cell left the visibility of a patch's light a coin toss in every cell a shadow's
 /// edge crosses: blotches of a few per cent from vertex to vertex, which moved with
-/// the seed (paper room: two seeds' images 0.024 FLIP apart; 0.018 with four rays,
-/// 0.016 with eight at half again the rays).
+/// the seed (paper room: the images of two seeds' solves 0.024 FLIP apart; 0.017 with
+/// four rays, 0.016 with eight at half again the rays).
 const EDGE_RAYS: u32 = 4;
 /// Only a cell that brings a vertex at least this share of the source's light there
 /// is sampled again at a shadow's edge (a 64-cell set brings 1/64 a cell on average):
