@@ -78,7 +78,7 @@ pub struct SolveArgs {
     #[arg(long, default_value_t = 64, value_name = "N")]
     pub(super) photons: u32,
     /// Photons in all at most, whatever --photons asks for a large mesh (0: no cap).
-    #[arg(long, default_value_t = 4_000_000, value_name = "N")]
+    #[arg(long, default_value_t = 3_000_000, value_name = "N")]
     pub(super) max_photons: u64,
     /// Time budget of the solve in seconds: deterministic shots stop at half of it,
     /// photons at all of it (the residual reached is reported) [default: none].

@@ -280,9 +280,10 @@ fn cells_at_a_shadows_edge_are_sampled_again() {
     }
     let mean = err / count as f32;
     assert!(count > 300, "{count} vertices in the penumbra");
-    // One ray per cell: 0.015; four at the edge: 0.006.
+    // One ray per cell: 0.015; four at the edge: 0.0068; sixteen where four leave
+    // more than 1 % standard error: 0.0052 (the seed is fixed).
     assert!(
-        mean < 0.009,
+        mean < 0.006,
         "mean error {mean} of the visible fraction over {count} vertices"
     );
 }
