@@ -7,8 +7,9 @@
 //! cell and shadow rays to it (Wallace et al. 1989); a vertex takes as many cells as
 //! the solid angle it sees the source under asks for (`Levels`), so its rays follow
 //! the source's size and distance, at least two rays to a light, sixteen where a
-//! source of few cells is partly hidden, and four to each cell at a shadow's edge
-//! across a source of many (`Solver::gather`). A patch shot again
+//! source of few cells is partly hidden, and four or sixteen to each cell at a
+//! shadow's edge across a source of many (module `shot`; the form factor in
+//! `form_factor`). A patch shot again
 //! reuses the form factors and visibility of its first shot and casts no rays
 //! (module `transfer`). What the shots leave unshot is carried by photons (module
 //! `photons`), whose cost follows the rays they cast. Each patch keeps a list of at most `n` sources whose
@@ -29,40 +30,20 @@ use rayon::prelude::*;
 
 use crate::accel::Accel;
 use crate::emitters::{light_power, SampledLight};
-use crate::interaction::{ray_epsilon, shadow_ray};
-use crate::mesh::{point_in_polygon, MeshVertex, RadiosityMesh};
+use crate::mesh::RadiosityMesh;
 use crate::progress::Progress;
-use crate::sampling::{derive, stratum, Alias, Stream};
+use crate::sampling::{derive, Alias, Stream};
 use crate::scene::{mean, Light, Rgb, Scene};
 use crate::{Error, Result};
 
+mod form_factor;
 mod photons;
 mod project;
+mod shot;
 mod transfer;
 
-/// Shadow rays per vertex to a light at least (see `Solver::gather`).
-const FIRST_LIGHT_RAYS: u32 = 2;
-/// Shadow rays per vertex to a source of few cells that the first rays found partly
-/// hidden (see `Solver::gather`).
-const REFINE_RAYS: u32 = 16;
-/// Shadow rays to a cell at a shadow's edge (see `Solver::gather`). One ray per
-/// cell left the visibility of a patch's light a coin toss in every cell a shadow's
-/// edge crosses: blotches of a few per cent from vertex to vertex, which moved with
-/// the seed (paper room: the images of two seeds' solves 0.024 FLIP apart; 0.017 with
-/// four rays, 0.016 with eight at half again the rays).
-const EDGE_RAYS: u32 = 4;
-/// Only a cell that brings a vertex at least this share of the source's light there
-/// is sampled again at a shadow's edge (a 64-cell set brings 1/64 a cell on average):
-/// 15 % fewer rays in the paper room, none of the gain lost.
-const EDGE_SHARE: f32 = 0.01;
-/// Where the edge cells' four rays leave a standard error over this fraction of what
-/// the source brings a vertex, the partly hidden ones are sampled again with
-/// [`EDGE_RAYS_MORE`] rays (paper room: FLIP against Mitsuba 0.046 -> 0.042 at 37 %
-/// more shot rays, the gain spread over the ceiling, the walls and the bookcase; two
-/// seeds' solves 0.018 -> 0.017 apart; 0.005 gains 0.0004 more at 3 % more rays).
-const EDGE_ERROR: f32 = 0.01;
-/// See [`EDGE_ERROR`].
-const EDGE_RAYS_MORE: u32 = 16;
+pub use form_factor::point_polygon_form_factor;
+use shot::{Levels, ShootPoint, Touching, FIRST_LIGHT_RAYS};
 
 /// What shot light: a light source of the scene or a radiant patch of the mesh.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
@@ -160,123 +141,6 @@ pub struct ListEntry {
     pub power: f32,
 }
 
-/// The cells of one shot at several resolutions, and the source's bounds: a vertex
-/// takes the coarsest set with as many cells as the solid angle it sees the source
-/// under asks for (its rays follow the source's solid angle and distance).
-struct Levels {
-    sets: Vec<Vec<ShootPoint>>,
-    /// Per set, which of its cells touch.
-    touching: Vec<Touching>,
-    /// The shot's seed (receivers derive where they aim from it).
-    seed: u32,
-    centre: Vec3,
-    radius: f32,
-    area: f32,
-}
-
-impl Levels {
-    /// The set a vertex at `x` starts with: a source seen under solid angle w
-    /// (estimated as area / distance^2 from its bounding sphere, at most 2 pi) asks
-    /// for `w / 2pi * max` cells; the coarsest set with that many is taken.
-    ///
-    /// Returns the index of the set's first cell among all the sets' cells, one set
-    /// after the other, and the set.
-    fn for_vertex(&self, x: Vec3, max: u32) -> Cells<'_> {
-        let d = (x - self.centre).length() - self.radius;
-        let want = if d > 0.0 {
-            let omega = (self.area / (d * d)).min(2.0 * std::f32::consts::PI);
-            omega / (2.0 * std::f32::consts::PI) * max as f32
-        } else {
-            f32::INFINITY
-        };
-        let mut base = 0;
-        for (i, s) in self.sets.iter().enumerate() {
-            if s.len() as f32 >= want || i + 1 == self.sets.len() {
-                return Cells {
-                    base,
-                    points: s,
-                    touching: &self.touching[i],
-                };
-            }
-            base += s.len() as u32;
-        }
-        Cells {
-            base: 0,
-            points: &[],
-            touching: Touching::NONE,
-        }
-    }
-
-    /// The radiosity of every cell of every set, one set after the other.
-    fn radiosity(&self) -> Vec<Rgb> {
-        self.sets.iter().flatten().map(|sp| sp.radiosity).collect()
-    }
-}
-
-/// One set of a shot's cells as a vertex takes it: the index of its first cell
-/// among all the sets' cells, the cells, and which of them touch.
-struct Cells<'a> {
-    base: u32,
-    points: &'a [ShootPoint],
-    touching: &'a Touching,
-}
-
-/// Which cells of a set touch (share a corner). Where two touching cells disagree
-/// about whether a receiver sees them, a shadow's edge crosses them (or passes
-/// close), and their visibility is sampled again (`Solver::gather`).
-#[derive(Default)]
-struct Touching {
-    /// Cell k's neighbours are `list[start[k]..start[k + 1]]`.
-    start: Vec<u32>,
-    list: Vec<u32>,
-}
-
-impl Touching {
-    const NONE: &'static Touching = &Touching {
-        start: Vec::new(),
-        list: Vec::new(),
-    };
-
-    /// Cells touch when a corner of one is bit for bit a corner of the other: cells
-    /// cut from one surface compute a shared corner from the same parameters.
-    fn new(cells: &[ShootPoint]) -> Self {
-        let mut at: std::collections::HashMap<[u32; 3], Vec<u32>> = Default::default();
-        for (i, c) in cells.iter().enumerate() {
-            for q in &c.poly[..c.len as usize] {
-                at.entry(q.to_array().map(f32::to_bits))
-                    .or_default()
-                    .push(i as u32);
-            }
-        }
-        let mut near: Vec<Vec<u32>> = vec![Vec::new(); cells.len()];
-        for group in at.values().filter(|g| g.len() > 1) {
-            for &a in group {
-                near[a as usize].extend(group.iter().filter(|&&b| b != a));
-            }
-        }
-        let mut t = Touching {
-            start: Vec::with_capacity(cells.len() + 1),
-            list: Vec::new(),
-        };
-        for mut n in near {
-            n.sort_unstable();
-            n.dedup();
-            t.start.push(t.list.len() as u32);
-            t.list.extend(n);
-        }
-        t.start.push(t.list.len() as u32);
-        t
-    }
-
-    /// The cells that touch cell `k`.
-    fn of(&self, k: usize) -> &[u32] {
-        match (self.start.get(k), self.start.get(k + 1)) {
-            (Some(&a), Some(&b)) => &self.list[a as usize..b as usize],
-            _ => &[],
-        }
-    }
-}
-
 /// Figures of a solve.
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct SolveStats {
@@ -340,119 +204,6 @@ impl Solution {
                 }
             }
         }
-        t
-    }
-}
-
-/// Where a shot comes from: a point light, or a cell of an emitting or reflecting
-/// surface with the radiosity it sends.
-#[derive(Debug, Clone, Copy)]
-struct ShootPoint {
-    /// The light's position, or the jittered point in the cell (shadow rays aim here).
-    p: Vec3,
-    /// The cell's normal (unused for point lights).
-    n: Vec3,
-    /// The cell's corner polygon (`len` 0 for point lights).
-    poly: [Vec3; 4],
-    len: u8,
-    /// Radiosity the cell emits (for point lights: the intensity).
-    radiosity: Rgb,
-    /// Every point of `poly` is on the surface: each receiver aims at a point of its
-    /// own in the cell, not at `p`.
-    flat: bool,
-}
-
-impl ShootPoint {
-    fn from_cell(c: &crate::mesh::ShootCell, radiosity: Rgb) -> Self {
-        ShootPoint {
-            p: c.p,
-            n: c.n,
-            poly: c.corners,
-            len: c.len,
-            radiosity: radiosity * c.weight,
-            flat: c.flat && c.len >= 3,
-        }
-    }
-
-    fn point(p: Vec3, intensity: Rgb) -> Self {
-        ShootPoint {
-            p,
-            n: Vec3::ZERO,
-            poly: [Vec3::ZERO; 4],
-            len: 0,
-            radiosity: intensity,
-            flat: false,
-        }
-    }
-}
-
-/// The exact form factor from a differential area at `x` with unit normal `n` to a
-/// polygon (Lambert's formula), after clipping the polygon to the hemisphere above
-/// `x`. Unoccluded.
-pub fn point_polygon_form_factor(x: Vec3, n: Vec3, poly: &[Vec3]) -> f32 {
-    // Clip against the plane n . (y - x) >= 0 (Sutherland-Hodgman, one plane).
-    let mut clipped = [Vec3::ZERO; 8];
-    let mut len = 0;
-    let m = poly.len();
-    for i in 0..m {
-        let (a, b) = (poly[i], poly[(i + 1) % m]);
-        let (da, db) = (n.dot(a - x), n.dot(b - x));
-        if da >= 0.0 {
-            clipped[len] = a;
-            len += 1;
-        }
-        if (da >= 0.0) != (db >= 0.0) {
-            let t = da / (da - db);
-            clipped[len] = a + (b - a) * t;
-            len += 1;
-        }
-    }
-    if len < 3 {
-        return 0.0;
-    }
-    // The unit vectors to the corners, each normalised once.
-    let mut r = [Vec3::ZERO; 8];
-    for (ri, c) in r.iter_mut().zip(&clipped[..len]) {
-        *ri = (*c - x).normalize_or_zero();
-    }
-    let mut sum = 0.0;
-    for i in 0..len {
-        let (ri, rj) = (r[i], r[(i + 1) % len]);
-        let c = ri.cross(rj);
-        let l = c.length();
-        if l > 1e-12 {
-            sum += n.dot(c / l) * angle(l, ri.dot(rj));
-        }
-    }
-    sum.abs() / (2.0 * std::f32::consts::PI)
-}
-
-/// `atan2(s, c)` for `s >= 0`: the angle between two unit vectors from the sine and
-/// cosine of it, in `[0, pi]`. Cephes' `atanf` polynomial after reduction to
-/// `|x| <= tan(pi/8)`: within 3e-7 (an f32 ulp of pi) of the exact angle, and cheaper
-/// than libm's `atan2f`, which was a fifth of the solve's instructions.
-fn angle(s: f32, c: f32) -> f32 {
-    use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
-    let (a, b) = (s, c.abs());
-    // r = min / max in [0, 1]; the angle of (max, min) is atan(r).
-    let (lo, hi) = if a > b { (b, a) } else { (a, b) };
-    if !(hi > 0.0) {
-        return 0.0;
-    }
-    let r = lo / hi;
-    let (base, x) = if r > 0.414_213_57 {
-        (FRAC_PI_4, (r - 1.0) / (r + 1.0))
-    } else {
-        (0.0, r)
-    };
-    let z = x * x;
-    let p = (((8.053_744_5e-2 * z - 1.387_768_6e-1) * z + 1.997_771_1e-1) * z - 3.333_295e-1) * z * x + x;
-    let t = base + p;
-    // Undo the swap (angle above pi/4) and the reflection (negative cosine).
-    let t = if a > b { FRAC_PI_2 - t } else { t };
-    if c < 0.0 {
-        PI - t
-    } else {
         t
     }
 }
@@ -852,178 +603,6 @@ impl Solver<'_> {
         for u in &mut self.unshot {
             *u = Vec3::ZERO;
         }
-    }
-
-    /// Light from the cells of a shot at vertex `v`: (occluded, unoccluded)
-    /// irradiance and rays. `seed` (the vertex's own) chooses where in each flat cell
-    /// its shadow rays aim.
-    ///
-    /// The form factor of each cell is exact; its visibility is sampled with
-    /// coherence, as the shadow image buffer does it on the screen: `first_rays` over
-    /// the set's cells at least (one per cell for patches, [`FIRST_LIGHT_RAYS`] for
-    /// lights), stratified within the cells, and more only where they disagree (the
-    /// source partly hidden): a source of fewer than [`REFINE_RAYS`] cells is sampled
-    /// again with that many stratified rays; in a source of more, a cell that a
-    /// touching cell disagrees with (a shadow's edge crosses one of them) is sampled
-    /// again with [`EDGE_RAYS`] if it brings at least [`EDGE_SHARE`] of the source's
-    /// light, and with [`EDGE_RAYS_MORE`] where those leave a standard error over
-    /// [`EDGE_ERROR`] of the source's light at the vertex. A vertex that sees all or none of a source pays the
-    /// first rays only.
-    ///
-    /// From a patch, `links` (if given) receives each cell's form factor and
-    /// visibility found, with the cell's index in the set plus `base`.
-    fn gather(
-        &self,
-        Cells {
-            base,
-            points,
-            touching,
-        }: Cells<'_>,
-        v: &MeshVertex,
-        seed: u32,
-        light: Option<&SampledLight>,
-        first_rays: u32,
-        mut links: Option<&mut Vec<transfer::Link>>,
-    ) -> AtVertex {
-        let (x, n) = (v.q, v.n);
-        // Rays through of `per` to cell `k` (one at a point: a light in space, or a
-        // curved cell's point), with the one shadow-ray rule of both passes: to a light
-        // point in space, or to a point of the shooting cell's surface.
-        let through = |k: usize, per: u32, salt: u32| -> (u32, u32) {
-            let sp = &points[k];
-            let per = if sp.flat { per } else { 1 };
-            let normal = if light.is_some() { None } else { Some(sp.n) };
-            let hits = (0..per)
-                .filter(|&j| {
-                    let target = if sp.flat {
-                        let u = stratum(seed, (k as u32) << 9 | salt << 7, j, per);
-                        point_in_polygon(&sp.poly[..sp.len as usize], u)
-                    } else {
-                        sp.p
-                    };
-                    !self.accel.occluded(&shadow_ray(x, n, target, normal))
-                })
-                .count() as u32;
-            (hits, per)
-        };
-        let (mut occ, mut unocc, mut rays) = (Vec3::ZERO, Vec3::ZERO, 0u64);
-        let (mut seen, mut hidden) = (false, false);
-        // The cells that reach the vertex: each one's index, what it brings, and the
-        // visibility its first rays found.
-        let mut reached: Vec<(usize, Vec3, f32)> = Vec::new();
-        let per = first_rays
-            .div_ceil(points.len().max(1) as u32)
-            .next_power_of_two();
-        for (k, sp) in points.iter().enumerate() {
-            let d = sp.p - x;
-            if !(d.length_squared() > 0.0) {
-                continue;
-            }
-            let mut f = 0.0;
-            // Radiosity is one-sided: a vertex receives on its front (two-sided
-            // surfaces have a back twin with the reversed normal).
-            let e = if let Some(l) = light {
-                match point_light_at(l, x, n) {
-                    Some((e, _)) => e,
-                    None => continue,
-                }
-            } else {
-                // The cell emits from its front. A receiver in (or within rounding of)
-                // the cell's plane sees it edge-on: nothing.
-                let h = sp.n.dot(x - sp.p);
-                let margin = 4.0 * (ray_epsilon(x) + ray_epsilon(sp.p));
-                if h <= margin {
-                    continue;
-                }
-                f = point_polygon_form_factor(x, n, &sp.poly[..sp.len as usize]);
-                if !(f > 0.0) {
-                    continue;
-                }
-                sp.radiosity * f
-            };
-            unocc += e;
-            let (hits, per) = through(k, per, 0);
-            rays += u64::from(per);
-            seen |= hits > 0;
-            hidden |= hits < per;
-            let vis = hits as f32 / per as f32;
-            occ += e * vis;
-            reached.push((k, e, vis));
-            if let Some(l) = links.as_deref_mut() {
-                l.push(transfer::Link {
-                    cell: base + k as u32,
-                    f,
-                    vis,
-                });
-            }
-        }
-        if !(seen && hidden) {
-            return (occ, unocc, rays);
-        }
-        if reached.len() >= REFINE_RAYS as usize {
-            // Many cells: only those at a shadow's edge, where touching cells
-            // disagree, are sampled again.
-            let mut slot = vec![u32::MAX; points.len()];
-            for (i, r) in reached.iter().enumerate() {
-                slot[r.0] = i as u32;
-            }
-            let least = mean(unocc) * EDGE_SHARE;
-            let mut edges: Vec<(usize, usize, f32, f32)> = Vec::new();
-            for (i, &(k, e, vis)) in reached.iter().enumerate() {
-                let edge = points[k].flat
-                    && mean(e) > least
-                    && touching.of(k).iter().any(|&j| {
-                        let s = slot[j as usize];
-                        s != u32::MAX && reached[s as usize].2 != vis
-                    });
-                if !edge {
-                    continue;
-                }
-                let (hits, per) = through(k, EDGE_RAYS, 1);
-                rays += u64::from(per);
-                let now = hits as f32 / per as f32;
-                occ += e * (now - vis);
-                if let Some(l) = links.as_deref_mut() {
-                    l[i].vis = now;
-                }
-                edges.push((i, k, mean(e), now));
-            }
-            // The variance the edge cells' rays leave (a fraction p of n rays hit: p (1 -
-            // p) / n per cell): where it is over EDGE_ERROR of what the vertex gets,
-            // the partly hidden edge cells are sampled again, more densely.
-            let var: f32 = edges
-                .iter()
-                .map(|&(_, _, e, p)| e * e * p * (1.0 - p) / EDGE_RAYS as f32)
-                .sum();
-            if var > (EDGE_ERROR * mean(occ)).powi(2) {
-                for &(i, k, _, p) in &edges {
-                    if p == 0.0 || p == 1.0 {
-                        continue;
-                    }
-                    let e = reached[i].1;
-                    let (hits, per) = through(k, EDGE_RAYS_MORE, 2);
-                    rays += u64::from(per);
-                    let now = hits as f32 / per as f32;
-                    occ += e * (now - p);
-                    if let Some(l) = links.as_deref_mut() {
-                        l[i].vis = now;
-                    }
-                }
-            }
-            return (occ, unocc, rays);
-        }
-        let per = REFINE_RAYS.div_ceil(reached.len() as u32).next_power_of_two();
-        let mut refined = Vec3::ZERO;
-        for (i, &(k, e, _)) in reached.iter().enumerate() {
-            let (hits, per) = through(k, per, 1);
-            rays += u64::from(per);
-            let vis = hits as f32 / per as f32;
-            refined += e * vis;
-            if let Some(l) = links.as_deref_mut() {
-                l[i].vis = vis;
-            }
-        }
-        (refined, unocc, rays)
     }
 
     /// Shoots from `points` of `source` to every vertex not on the source itself and

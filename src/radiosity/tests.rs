@@ -44,24 +44,6 @@ fn form_factor(receiver: [Vec3; 4], emitter: [Vec3; 4]) -> f32 {
 }
 
 #[test]
-fn angle_matches_atan2_to_about_one_ulp_of_pi() {
-    let mut worst = 0.0f64;
-    for i in 0..=2000 {
-        let th = std::f64::consts::PI * i as f64 / 2000.0;
-        for scale in [1e-3f64, 1.0, 7.5] {
-            let (s, c) = ((th.sin() * scale) as f32, (th.cos() * scale) as f32);
-            let exact = (s as f64).atan2(c as f64);
-            worst = worst.max((angle(s, c) as f64 - exact).abs());
-        }
-    }
-    assert!(worst < 3e-7, "{worst}");
-    assert_eq!(angle(0.0, 0.0), 0.0);
-    assert_eq!(angle(0.0, 2.0), 0.0);
-    assert!((angle(0.0, -2.0) - PI).abs() < 1e-6);
-    assert!((angle(3.0, 0.0) - PI / 2.0).abs() < 1e-6);
-}
-
-#[test]
 fn form_factor_between_parallel_unit_squares_one_apart() {
     let v = Vec3::new;
     let f = form_factor(
