@@ -352,7 +352,7 @@ def mitsuba_defines(exe: str, scene: Path, work: Path) -> dict:
 EFFORT = [[], ["--shoot-samples", "128"], ["--shoot-samples", "128", "--max-level", "3"]]
 # Scenes (by file stem) with a ladder of their own. None now: since pass 1 merges
 # polygons into lattice patches and carries the tail by photons, the conference room
-# (331,179 triangles) renders with the defaults in about 40 s on 2 cores.
+# (331,185 triangles) renders with the defaults in about 25 s on 2 cores.
 RADTRACE_EFFORT: dict = {}
 
 
