@@ -1,0 +1,293 @@
+//! The cells a patch shoots from: the patch cut into about as many cells as a shot
+//! asks for, each with its corner polygon, a jittered point in it and the mean of the
+//! unshot radiosity over it.
+
+use glam::{Vec2, Vec3};
+
+use super::{Domain, RadiosityMesh};
+use crate::scene::Rgb;
+
+impl RadiosityMesh {
+    /// The patch cut into about `count` cells for shooting from it (stratified:
+    /// cells of a regular grid over each of the patch's grids, in proportion to
+    /// area), each with a point jittered inside it by `u` (`u(g << 16 | k)` for cell
+    /// `k` of grid `g`) and the mean of `field` (per vertex; may be empty) over it.
+    pub fn shoot_cells(
+        &self,
+        patch: u32,
+        count: u32,
+        u: impl Fn(u32) -> Vec2,
+        field: &[Rgb],
+    ) -> Vec<ShootCell> {
+        let p = &self.patches[patch as usize];
+        let total = p.area;
+        let mut out = Vec::with_capacity(count as usize);
+        if !(total > 0.0) {
+            return out;
+        }
+        for (g, grid) in p.grids.iter().enumerate() {
+            if let Domain::Lattice(l) = &grid.domain {
+                // The surface of a back twin is wound for the back already.
+                let base = grid.first_vertex;
+                let value = |q: Vec3| {
+                    if field.is_empty() {
+                        Vec3::ZERO
+                    } else {
+                        l.interp(base, q).apply(field)
+                    }
+                };
+                if let Some(blocks) = l.blocks(count) {
+                    out.extend(block_cells(&blocks, p.area, &u, self.mesh_size, value));
+                } else {
+                    out.extend(surface_cells(&l.surface, count, &u, self.mesh_size, value));
+                }
+                continue;
+            }
+            let k = (count as f32 * grid.area / total).max(1.0);
+            let side = (k.sqrt().round() as u32).max(1);
+            let base = (g as u32) << 16;
+            // Points of the field's mean: about two per element along each side.
+            let q = (2 * grid.n.max(grid.m)).div_ceil(side).clamp(1, 16);
+            let mut push = |corners: &[(f32, f32)], idx: u32| {
+                let tri = corners.len() == 3;
+                // Local coordinates in the cell (barycentrics of corners 1 and 2 of a
+                // triangle; [0, 1]^2 over a parallelogram) to the grid's parameters.
+                let at = |a: f32, b: f32| {
+                    let c = corners;
+                    if tri {
+                        (
+                            c[0].0 + (c[1].0 - c[0].0) * a + (c[2].0 - c[0].0) * b,
+                            c[0].1 + (c[1].1 - c[0].1) * a + (c[2].1 - c[0].1) * b,
+                        )
+                    } else {
+                        (c[0].0 + (c[1].0 - c[0].0) * a, c[0].1 + (c[3].1 - c[0].1) * b)
+                    }
+                };
+                // Uniform point in the cell.
+                let r = u(base + idx);
+                let (s, t) = if tri {
+                    let q = r.x.sqrt();
+                    at(q * (1.0 - r.y), q * r.y)
+                } else {
+                    at(r.x, r.y)
+                };
+                let (pos, n) = grid.eval(s, t);
+                let mut poly = [Vec3::ZERO; 4];
+                for (c, &(cs, ct)) in corners.iter().enumerate() {
+                    poly[c] = grid.eval(cs, ct).0;
+                }
+                let value = if field.is_empty() {
+                    Vec3::ZERO
+                } else {
+                    cell_mean(q, tri, |a, b| {
+                        let (s, t) = at(a, b);
+                        grid.interp(s, t).apply(field)
+                    })
+                };
+                out.push(ShootCell {
+                    corners: poly,
+                    len: corners.len() as u8,
+                    p: pos,
+                    n,
+                    value,
+                    weight: 1.0,
+                    flat: !matches!(grid.domain, Domain::Bezier { .. }),
+                });
+            };
+            match grid.domain {
+                Domain::Tri(_) => {
+                    let m = side;
+                    let f = |i: u32, j: u32| (i as f32 / m as f32, j as f32 / m as f32);
+                    let mut idx = 0;
+                    for j in 0..m {
+                        for i in 0..m - j {
+                            push(&[f(i, j), f(i + 1, j), f(i, j + 1)], idx);
+                            idx += 1;
+                            if i + j + 1 < m {
+                                push(&[f(i + 1, j + 1), f(i, j + 1), f(i + 1, j)], idx);
+                                idx += 1;
+                            }
+                        }
+                    }
+                }
+                _ => {
+                    let f = |i: u32, j: u32| (i as f32 / side as f32, j as f32 / side as f32);
+                    for j in 0..side {
+                        for i in 0..side {
+                            push(
+                                &[f(i, j), f(i + 1, j), f(i + 1, j + 1), f(i, j + 1)],
+                                j * side + i,
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+/// A piece of a patch that shoots light: its corner polygon (for the exact
+/// unoccluded form factor) and a jittered point in it (for visibility and for the
+/// radiosity it carries).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShootCell {
+    /// Corners, counter-clockwise seen from the front; `len` of them are used.
+    pub corners: [Vec3; 4],
+    /// 3 or 4.
+    pub len: u8,
+    /// The jittered point.
+    pub p: Vec3,
+    /// Unit normal at the point (front).
+    pub n: Vec3,
+    /// The mean over the cell of the field it was cut with (zero without one): a
+    /// quadrature of points about half an element apart, so what a cell carries does
+    /// not depend on where its point was jittered.
+    pub value: Rgb,
+    /// What the cell's light counts for: 1, or (area of the surface) / (area of the
+    /// cells drawn) when the cells are a sample of a surface of more pieces than cells.
+    pub weight: f32,
+    /// The cell is flat: every point of its corner polygon lies on the surface (not
+    /// so for a piece of a curved Bezier surface).
+    pub flat: bool,
+}
+
+/// The mean of `f` over a cell, by `q` x `q` points: on a square's grid of cell
+/// centres (`tri` false; local coordinates in [0, 1]^2), or at the centroids of a
+/// triangle cut into q^2 (`tri` true; barycentrics of corners 1 and 2).
+fn cell_mean(q: u32, tri: bool, f: impl Fn(f32, f32) -> Rgb) -> Rgb {
+    let qf = q as f32;
+    let mut sum = Vec3::ZERO;
+    for j in 0..q {
+        if tri {
+            for i in 0..q - j {
+                let (i, jf) = (i as f32, j as f32);
+                sum += f((i + 1.0 / 3.0) / qf, (jf + 1.0 / 3.0) / qf);
+                if i + jf + 1.0 < qf {
+                    sum += f((i + 2.0 / 3.0) / qf, (jf + 2.0 / 3.0) / qf);
+                }
+            }
+        } else {
+            for i in 0..q {
+                sum += f((i as f32 + 0.5) / qf, (j as f32 + 0.5) / qf);
+            }
+        }
+    }
+    sum / (q * q) as f32
+}
+
+/// About `count` shooting cells over the triangles `tris` (the exact surface, wound to
+/// face its front), each with a point jittered by `u` and the mean of `value` over it
+/// (points about half of `mesh_size` apart). With fewer triangles than `count`, each is
+/// cut into a triangular grid in proportion to its area; with more, `count` of them
+/// stand for equal shares of the cumulative area (the triangle at each share's middle:
+/// no choice depends on the seed).
+fn surface_cells<'a>(
+    tris: &'a [[Vec3; 3]],
+    count: u32,
+    u: &'a impl Fn(u32) -> Vec2,
+    mesh_size: f32,
+    value: impl Fn(Vec3) -> Rgb + 'a,
+) -> impl Iterator<Item = ShootCell> + 'a {
+    let areas: Vec<f32> = tris
+        .iter()
+        .map(|t| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length())
+        .collect();
+    let total: f32 = areas.iter().sum();
+    let count = count.max(1);
+    let mut pieces: Vec<([Vec3; 3], f32)> = Vec::new();
+    if total > 0.0 && tris.len() as u32 <= count {
+        for (t, a) in tris.iter().zip(&areas) {
+            let k = ((count as f32 * a / total).sqrt().round() as u32).max(1);
+            pieces.extend(crate::geometry::triangle_pieces(*t, k).map(|q| (q, 1.0)));
+        }
+    } else if total > 0.0 {
+        let mut cdf = Vec::with_capacity(tris.len());
+        let mut acc = 0.0f64;
+        for a in &areas {
+            acc += f64::from(*a);
+            cdf.push(acc);
+        }
+        for c in 0..count {
+            let x = (f64::from(c) + 0.5) / f64::from(count) * acc;
+            let i = cdf.partition_point(|&v| v < x).min(tris.len() - 1);
+            pieces.push((tris[i], total / (count as f32 * areas[i].max(1e-30))));
+        }
+    }
+    pieces.into_iter().enumerate().map(move |(k, (t, weight))| {
+        flat_cell(&t, point_in_polygon(&t, u(k as u32)), weight, mesh_size, &value)
+    })
+}
+
+/// A shooting cell on the triangle or planar quadrilateral `poly` with point `p` and
+/// weight `weight`, holding the mean of `value` over it (points about half of
+/// `mesh_size` apart).
+fn flat_cell(poly: &[Vec3], p: Vec3, weight: f32, mesh_size: f32, value: impl Fn(Vec3) -> Rgb) -> ShootCell {
+    let tri = poly.len() == 3;
+    // Twice the area along the normal: edges of a triangle, diagonals of a quadrilateral.
+    let n = if tri {
+        (poly[1] - poly[0]).cross(poly[2] - poly[0])
+    } else {
+        (poly[2] - poly[0]).cross(poly[3] - poly[1])
+    };
+    let side = (0.5 * n.length()).sqrt();
+    let q = ((2.0 * side / mesh_size.max(1e-30)).ceil() as u32).clamp(1, 16);
+    let value = cell_mean(q, tri, |a, b| {
+        value(if tri {
+            poly[0] + (poly[1] - poly[0]) * a + (poly[2] - poly[0]) * b
+        } else {
+            point_in_polygon(poly, Vec2::new(a, b))
+        })
+    });
+    let mut corners = [Vec3::ZERO; 4];
+    corners[..poly.len()].copy_from_slice(poly);
+    ShootCell {
+        corners,
+        len: poly.len() as u8,
+        p,
+        n: n.normalize_or(Vec3::Z),
+        value,
+        weight,
+        flat: true,
+    }
+}
+
+/// Shooting cells on the planar quadrilaterals `blocks` that tile a surface of area
+/// `area`, each with a point jittered by `u` and the mean of `value` over it (points
+/// about half of `mesh_size` apart); their weight makes the blocks' power that of the
+/// surface where the blocks' outline overreaches it.
+fn block_cells<'a>(
+    blocks: &'a [[Vec3; 4]],
+    area: f32,
+    u: &'a impl Fn(u32) -> Vec2,
+    mesh_size: f32,
+    value: impl Fn(Vec3) -> Rgb + 'a,
+) -> impl Iterator<Item = ShootCell> + 'a {
+    let quad_area = |b: &[Vec3; 4]| 0.5 * (b[2] - b[0]).cross(b[3] - b[1]).length();
+    let tiled: f32 = blocks.iter().map(quad_area).sum();
+    let weight = if tiled > 0.0 { area / tiled } else { 1.0 };
+    blocks
+        .iter()
+        .enumerate()
+        .map(move |(k, b)| flat_cell(b, point_in_polygon(b, u(k as u32)), weight, mesh_size, &value))
+}
+
+impl ShootCell {
+    /// The corner polygon.
+    pub fn polygon(&self) -> &[Vec3] {
+        &self.corners[..self.len as usize]
+    }
+}
+
+/// The point at `u` in the triangle or (planar) quadrilateral `poly`: barycentric,
+/// uniform in area, for a triangle; bilinear in the corners for a quadrilateral.
+pub fn point_in_polygon(poly: &[Vec3], u: Vec2) -> Vec3 {
+    match poly {
+        [a, b, c] => {
+            let q = u.x.sqrt();
+            *a + (*b - *a) * (q * (1.0 - u.y)) + (*c - *a) * (q * u.y)
+        }
+        [a, b, c, d] => (*a * (1.0 - u.x) + *b * u.x) * (1.0 - u.y) + (*d * (1.0 - u.x) + *c * u.x) * u.y,
+        _ => poly.first().copied().unwrap_or(Vec3::ZERO),
+    }
+}
