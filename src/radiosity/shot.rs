@@ -310,6 +310,17 @@ impl Solver<'_> {
             for (i, r) in reached.iter().enumerate() {
                 slot[r.0] = i as u32;
             }
+            // Samples the cell of `reached[i]` (cell `k`) again with `per` rays of ray
+            // set `salt`: its visibility replaces `old` in the sum and in the link.
+            let mut again = |i: usize, k: usize, old: f32, per: u32, salt: u32, occ: &mut Vec3| {
+                let (hits, per) = through(k, per, salt);
+                let now = hits as f32 / per as f32;
+                *occ += reached[i].1 * (now - old);
+                if let Some(l) = links.as_deref_mut() {
+                    l[i].vis = now;
+                }
+                (now, u64::from(per))
+            };
             let least = mean(unocc) * EDGE_SHARE;
             let mut edges: Vec<(usize, usize, f32, f32)> = Vec::new();
             for (i, &(k, e, vis)) in reached.iter().enumerate() {
@@ -322,13 +333,8 @@ impl Solver<'_> {
                 if !edge {
                     continue;
                 }
-                let (hits, per) = through(k, EDGE_RAYS, 1);
-                rays += u64::from(per);
-                let now = hits as f32 / per as f32;
-                occ += e * (now - vis);
-                if let Some(l) = links.as_deref_mut() {
-                    l[i].vis = now;
-                }
+                let (now, cast) = again(i, k, vis, EDGE_RAYS, 1, &mut occ);
+                rays += cast;
                 edges.push((i, k, mean(e), now));
             }
             // The variance the edge cells' rays leave (a fraction p of n rays hit: p (1 -
@@ -343,14 +349,7 @@ impl Solver<'_> {
                     if p == 0.0 || p == 1.0 {
                         continue;
                     }
-                    let e = reached[i].1;
-                    let (hits, per) = through(k, EDGE_RAYS_MORE, 2);
-                    rays += u64::from(per);
-                    let now = hits as f32 / per as f32;
-                    occ += e * (now - p);
-                    if let Some(l) = links.as_deref_mut() {
-                        l[i].vis = now;
-                    }
+                    rays += again(i, k, p, EDGE_RAYS_MORE, 2, &mut occ).1;
                 }
             }
             return (occ, unocc, rays);
