@@ -35,8 +35,7 @@ pub fn box_inside(lo: Vec3, hi: Vec3) -> Vec<TriMesh> {
 pub fn box_outside(lo: Vec3, hi: Vec3) -> Vec<TriMesh> {
     let mut faces = box_inside(lo, hi);
     for f in &mut faces {
-        f.indices = vec![[0, 2, 1], [0, 3, 2]];
-        f.patches = vec![crate::geometry::Patch::Polygon(vec![0, 3, 2, 1])];
+        f.flip_normals();
     }
     faces
 }

@@ -56,8 +56,8 @@ impl Levels {
     /// (estimated as area / distance^2 from its bounding sphere, at most 2 pi) asks
     /// for `w / 2pi * max` cells; the coarsest set with that many is taken.
     ///
-    /// Returns the index of the set's first cell among all the sets' cells, one set
-    /// after the other, and the set.
+    /// Returns the set with which of its cells touch, and the index of its first
+    /// cell among all the sets' cells, one set after the other.
     pub(super) fn for_vertex(&self, x: Vec3, max: u32) -> Cells<'_> {
         let d = (x - self.centre).length() - self.radius;
         let want = if d > 0.0 {
@@ -101,7 +101,6 @@ pub(super) struct Cells<'a> {
 /// Which cells of a set touch (share a corner). Where two touching cells disagree
 /// about whether a receiver sees them, a shadow's edge crosses them (or passes
 /// close), and their visibility is sampled again (`Solver::gather`).
-#[derive(Default)]
 pub(super) struct Touching {
     /// Cell k's neighbours are `list[start[k]..start[k + 1]]`.
     pub(super) start: Vec<u32>,
@@ -253,7 +252,7 @@ impl Solver<'_> {
         let (mut seen, mut hidden) = (false, false);
         // The cells that reach the vertex: each one's index, what it brings, and the
         // visibility its first rays found.
-        let mut reached: Vec<(usize, Vec3, f32)> = Vec::new();
+        let mut reached: Vec<(usize, Vec3, f32)> = Vec::with_capacity(points.len());
         let per = first_rays
             .div_ceil(points.len().max(1) as u32)
             .next_power_of_two();
@@ -305,15 +304,18 @@ impl Solver<'_> {
         }
         if reached.len() >= REFINE_RAYS as usize {
             // Many cells: only those at a shadow's edge, where touching cells
-            // disagree, are sampled again.
-            let mut slot = vec![u32::MAX; points.len()];
-            for (i, r) in reached.iter().enumerate() {
-                slot[r.0] = i as u32;
-            }
-            // Samples the cell of `reached[i]` (cell `k`) again with `per` rays of ray
-            // set `salt`: its visibility replaces `old` in the sum and in the link.
-            let mut again = |i: usize, k: usize, old: f32, per: u32, salt: u32, occ: &mut Vec3| {
-                let (hits, per) = through(k, per, salt);
+            // disagree, are sampled again. `reached` is in cell order, so a touching
+            // cell's first visibility is found by a search (if it reached the vertex).
+            let first_vis = |j: u32| {
+                reached
+                    .binary_search_by_key(&(j as usize), |r| r.0)
+                    .ok()
+                    .map(|s| reached[s].2)
+            };
+            // Samples the cell of `reached[i]` again with `per` rays of ray set
+            // `salt`: its visibility replaces `old` in the sum and in the link.
+            let mut again = |i: usize, old: f32, per: u32, salt: u32, occ: &mut Vec3| {
+                let (hits, per) = through(reached[i].0, per, salt);
                 let now = hits as f32 / per as f32;
                 *occ += reached[i].1 * (now - old);
                 if let Some(l) = links.as_deref_mut() {
@@ -322,34 +324,31 @@ impl Solver<'_> {
                 (now, u64::from(per))
             };
             let least = mean(unocc) * EDGE_SHARE;
-            let mut edges: Vec<(usize, usize, f32, f32)> = Vec::new();
+            // The edge cells: index in `reached`, visibility after their edge rays.
+            let mut edges: Vec<(usize, f32)> = Vec::new();
             for (i, &(k, e, vis)) in reached.iter().enumerate() {
                 let edge = points[k].flat
                     && mean(e) > least
-                    && touching.of(k).iter().any(|&j| {
-                        let s = slot[j as usize];
-                        s != u32::MAX && reached[s as usize].2 != vis
-                    });
-                if !edge {
-                    continue;
+                    && touching
+                        .of(k)
+                        .iter()
+                        .any(|&j| first_vis(j).is_some_and(|w| w != vis));
+                if edge {
+                    let (now, cast) = again(i, vis, EDGE_RAYS, 1, &mut occ);
+                    rays += cast;
+                    edges.push((i, now));
                 }
-                let (now, cast) = again(i, k, vis, EDGE_RAYS, 1, &mut occ);
-                rays += cast;
-                edges.push((i, k, mean(e), now));
             }
             // The variance the edge cells' rays leave (a fraction p of n rays hit: p (1 -
             // p) / n per cell): where it is over EDGE_ERROR of what the vertex gets,
             // the partly hidden edge cells are sampled again, more densely.
             let var: f32 = edges
                 .iter()
-                .map(|&(_, _, e, p)| e * e * p * (1.0 - p) / EDGE_RAYS as f32)
+                .map(|&(i, p)| mean(reached[i].1).powi(2) * p * (1.0 - p) / EDGE_RAYS as f32)
                 .sum();
             if var > (EDGE_ERROR * mean(occ)).powi(2) {
-                for &(i, k, _, p) in &edges {
-                    if p == 0.0 || p == 1.0 {
-                        continue;
-                    }
-                    rays += again(i, k, p, EDGE_RAYS_MORE, 2, &mut occ).1;
+                for &(i, p) in edges.iter().filter(|e| e.1 > 0.0 && e.1 < 1.0) {
+                    rays += again(i, p, EDGE_RAYS_MORE, 2, &mut occ).1;
                 }
             }
             return (occ, unocc, rays);

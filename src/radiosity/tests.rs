@@ -157,6 +157,31 @@ fn a_warped_wall_sees_a_light_in_front_of_it_everywhere() {
     }
 }
 
+/// A 2 x 2 floor at z = 0 (reflectance 0.5) lit by an area lamp past a black screen, solved at
+/// `mesh_size` with up to 64 cells: each floor vertex's receiving point with the
+/// visible fraction of the lamp there (its occluded over its unoccluded light).
+fn lamp_past_a_screen(screen: [Vec3; 4], lamp: [Vec3; 4], mesh_size: f32) -> Vec<(Vec3, f32)> {
+    let floor = quad([v(-1., -1., 0.), v(1., -1., 0.), v(1., 1., 0.), v(-1., 1., 0.)]);
+    let s = scene(
+        vec![
+            (floor, Vec3::splat(0.5)),
+            (quad(screen), Vec3::ZERO),
+            (quad(lamp), Vec3::ZERO),
+        ],
+        vec![],
+        &[(2, Vec3::ONE)],
+    );
+    let sol = solve(&s, &Bvh::build(&s), &settings(mesh_size, 64, 0), &Silent).unwrap();
+    let e = &sol.lists[0][0];
+    let first = sol.mesh.patches[0].first_vertex as usize;
+    e.occluded
+        .iter()
+        .zip(&e.unoccluded)
+        .enumerate()
+        .map(|(k, (o, u))| (sol.mesh.vertices[first + k].q, o.x / u.x))
+        .collect()
+}
+
 /// The penumbra of a small square light (0.2 m, 2 m up) behind the straight edge of
 /// a screen halfway down: at floor vertex x the visible part of the light is
 /// (0.1 + x) / 0.2 exactly. The light is one cell from there, so one shadow ray
@@ -164,31 +189,17 @@ fn a_warped_wall_sees_a_light_in_front_of_it_everywhere() {
 /// the sixteen of the refinement stay under 0.12 (0.09).
 #[test]
 fn the_penumbra_of_a_small_light_follows_the_visible_part_of_it() {
-    let floor = quad([v(-1., -1., 0.), v(1., -1., 0.), v(1., 1., 0.), v(-1., 1., 0.)]);
-    let screen = quad([v(-3., -3., 1.), v(-3., 3., 1.), v(0., 3., 1.), v(0., -3., 1.)]);
-    let lamp = quad([
+    let screen = [v(-3., -3., 1.), v(-3., 3., 1.), v(0., 3., 1.), v(0., -3., 1.)];
+    let lamp = [
         v(-0.1, -0.1, 2.),
         v(-0.1, 0.1, 2.),
         v(0.1, 0.1, 2.),
         v(0.1, -0.1, 2.),
-    ]);
-    let s = scene(
-        vec![
-            (floor, Vec3::splat(0.5)),
-            (screen, Vec3::ZERO),
-            (lamp, Vec3::ZERO),
-        ],
-        vec![],
-        &[(2, Vec3::ONE)],
-    );
-    let sol = solve(&s, &Bvh::build(&s), &settings(0.02, 64, 0), &Silent).unwrap();
-    let e = &sol.lists[0][0];
-    let first = sol.mesh.patches[0].first_vertex as usize;
+    ];
     let (mut err, mut count) = (0.0, 0);
-    for (k, (o, u)) in e.occluded.iter().zip(&e.unoccluded).enumerate() {
-        let x = sol.mesh.vertices[first + k].q.x;
+    for (q, got) in lamp_past_a_screen(screen, lamp, 0.02) {
+        let x = q.x;
         let exact = ((0.1 + x) / 0.2).clamp(0.0, 1.0);
-        let got = o.x / u.x;
         if x.abs() < 0.1 {
             err += (got - exact).abs();
             count += 1;
@@ -212,31 +223,17 @@ fn the_penumbra_of_a_small_light_follows_the_visible_part_of_it() {
 /// average.
 #[test]
 fn cells_at_a_shadows_edge_are_sampled_again() {
-    let floor = quad([v(-1., -1., 0.), v(1., -1., 0.), v(1., 1., 0.), v(-1., 1., 0.)]);
     // The screen covers x + 0.3 y < 0 at height 0.5.
-    let screen = quad([
+    let screen = [
         v(-3., -3., 0.5),
         v(-3., 3., 0.5),
         v(-0.9, 3., 0.5),
         v(0.9, -3., 0.5),
-    ]);
+    ];
     let corners = [v(-1., -1., 1.), v(-1., 1., 1.), v(1., 1., 1.), v(1., -1., 1.)];
-    let s = scene(
-        vec![
-            (floor, Vec3::splat(0.5)),
-            (screen, Vec3::ZERO),
-            (quad(corners), Vec3::ZERO),
-        ],
-        vec![],
-        &[(2, Vec3::ONE)],
-    );
-    let sol = solve(&s, &Bvh::build(&s), &settings(0.05, 64, 0), &Silent).unwrap();
-    let e = &sol.lists[0][0];
-    let first = sol.mesh.patches[0].first_vertex as usize;
     let up = Vec3::Z;
     let (mut err, mut count) = (0.0, 0);
-    for (k, (o, u)) in e.occluded.iter().zip(&e.unoccluded).enumerate() {
-        let q = sol.mesh.vertices[first + k].q;
+    for (q, got) in lamp_past_a_screen(screen, corners, 0.05) {
         // From q, a lamp point p is hidden where the midpoint of q and p is under
         // the screen: p.x + 0.3 p.y < -(q.x + 0.3 q.y). Clip the lamp to the rest.
         let g = |p: Vec3| p.x + 0.3 * p.y + q.x + 0.3 * q.y;
@@ -256,7 +253,7 @@ fn cells_at_a_shadows_edge_are_sampled_again() {
             0.0
         };
         if (0.05..0.95).contains(&exact) {
-            err += (o.x / u.x - exact).abs();
+            err += (got - exact).abs();
             count += 1;
         }
     }

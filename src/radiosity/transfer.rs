@@ -5,8 +5,8 @@
 //! or four times, 14 of its 20 patch shots). The cells of a patch, their form factors
 //! to every vertex and the visibility its rays found do not change between those
 //! shots; only the radiosity on the cells does. So the first shot of a patch keeps,
-//! per receiving vertex, each cell's form factor and its form factor times the
-//! visibility found, and a later shot of the patch is a sum of products over them
+//! per receiving vertex, each cell's form factor and the visibility its rays found,
+//! and a later shot of the patch is a sum of products over them
 //! (no rays). A kept shot costs 8 bytes per link from a cell to a vertex; shots are
 //! kept until the first that does not fit in what is left of [`BUDGET`] bytes, so
 //! memory stays bounded whatever the scene (the paper room keeps its shots in 16 MB),
