@@ -14,11 +14,18 @@ use radtrace::scene::Scene;
 const ROOMLET: &str = include_str!("../seeds/roomlet.xml");
 
 fn scene() -> &'static Scene {
-    static SCENE: OnceLock<Scene> = OnceLock::new();
-    SCENE.get_or_init(|| {
-        radtrace::scene::xml::load_str(Path::new("roomlet.xml"), ROOMLET, &[])
+    &world().0
+}
+
+/// The scene and its BVH (the loader rebuilds the mesh with it).
+fn world() -> &'static (Scene, radtrace::accel::Bvh) {
+    static WORLD: OnceLock<(Scene, radtrace::accel::Bvh)> = OnceLock::new();
+    WORLD.get_or_init(|| {
+        let scene = radtrace::scene::xml::load_str(Path::new("roomlet.xml"), ROOMLET, &[])
             .expect("the roomlet loads")
-            .scene
+            .scene;
+        let bvh = radtrace::accel::Bvh::build(&scene);
+        (scene, bvh)
     })
 }
 
@@ -51,7 +58,7 @@ fuzz_target!(|data: &[u8]| {
         }
         _ => data.to_vec(),
     };
-    if let Ok(sol) = radtrace::io::solution::load_from(path, &bytes[..], scene()) {
+    if let Ok(sol) = radtrace::io::solution::load_from(path, &bytes[..], scene(), &world().1) {
         assert!(sol.general.iter().all(|c| c.is_finite()));
         assert_eq!(sol.lists.len(), sol.mesh.patches.len());
     }

@@ -1,7 +1,8 @@
 //! The solution file: the view-independent result of pass 1, saved once and reused
 //! for any view (`radtrace solve`, `radtrace render --solution`).
 //!
-//! # Format (version 5: the solve statistics gained `reused_shots`; version 4: the
+//! # Format (version 6: the caustic part of the general radiosity, after it; version
+//! 5: the solve statistics gained `reused_shots`; version 4: the
 //! mesh leaves covered vertices out of its interpolation, and the solve settings
 //! gained `max_photons`; version 3 gained `photons` and `time_limit`)
 //!
@@ -10,7 +11,7 @@
 //! | offset | size | what |
 //! | ---: | ---: | --- |
 //! | 0 | 18 | magic: `RADTRACE-SOLUTION\n` |
-//! | 18 | 4 | format version, `u32` (5; version 1 let radiant patches evict lights from the lists) |
+//! | 18 | 4 | format version, `u32` (6; version 1 let radiant patches evict lights from the lists) |
 //! | 22 | 8 | scene fingerprint, `u64` ([`scene_fingerprint`]) |
 //! | 30 | 8 | payload length in bytes, `u64` |
 //! | 38 | 4 | checksum, `u32`: CRC-32 (IEEE) of bytes 18..38 followed by the payload |
@@ -23,6 +24,7 @@
 //! sequences prefixed by a `u64` length, `f32`/`f64` as their IEEE bits, enums by a
 //! `u32` variant index) of, in this order:
 //! [`SolveSettings`], the general radiosity (one RGB `[f32; 3]` per mesh vertex),
+//! its caustic part ([`Solution::caustic`]: the same, or an empty sequence),
 //! the source lists (per patch, a sequence of [`ListEntry`]), [`SolveStats`], the
 //! mesh's vertex count (`u64`) and its per-patch vertex counts (sequence of `u32`).
 //!
@@ -59,7 +61,7 @@ use crate::{Error, Result};
 pub const MAGIC: &[u8; 18] = b"RADTRACE-SOLUTION\n";
 
 /// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 5;
+pub const FORMAT_VERSION: u32 = 6;
 
 /// Bytes before the payload: magic, version, fingerprint, length, checksum.
 const HEADER_LEN: usize = MAGIC.len() + 4 + 8 + 8 + 4;
@@ -75,6 +77,7 @@ const CHECKSUM_AT: usize = LENGTH_AT + 8;
 struct PayloadOut<'a> {
     settings: &'a SolveSettings,
     general: &'a [Rgb],
+    caustic: &'a [Rgb],
     lists: &'a [Vec<ListEntry>],
     stats: &'a SolveStats,
     vertex_count: u64,
@@ -86,6 +89,7 @@ struct PayloadOut<'a> {
 struct PayloadIn {
     settings: SolveSettings,
     general: Vec<Rgb>,
+    caustic: Vec<Rgb>,
     lists: Vec<Vec<ListEntry>>,
     stats: SolveStats,
     vertex_count: u64,
@@ -301,6 +305,7 @@ fn encode_file(version: u32, fingerprint: u64, payload: &[u8]) -> Vec<u8> {
 fn non_finite(
     settings: &SolveSettings,
     general: &[Rgb],
+    caustic: &[Rgb],
     lists: &[Vec<ListEntry>],
     stats: &SolveStats,
 ) -> Option<String> {
@@ -315,6 +320,9 @@ fn non_finite(
     }
     if let Some(v) = general.iter().position(|c| !c.is_finite()) {
         return Some(format!("a non-finite general radiosity at vertex {v}"));
+    }
+    if let Some(v) = caustic.iter().position(|c| !c.is_finite()) {
+        return Some(format!("a non-finite caustic radiosity at vertex {v}"));
     }
     for (p, list) in lists.iter().enumerate() {
         for e in list {
@@ -335,6 +343,7 @@ pub fn save(solution: &Solution, scene: &Scene, path: &Path) -> Result<()> {
     if let Some(what) = non_finite(
         &solution.settings,
         &solution.general,
+        &solution.caustic,
         &solution.lists,
         &solution.stats,
     ) {
@@ -345,6 +354,7 @@ pub fn save(solution: &Solution, scene: &Scene, path: &Path) -> Result<()> {
     }
     let mesh = &solution.mesh;
     let fits = solution.general.len() == mesh.vertices.len()
+        && (solution.caustic.is_empty() || solution.caustic.len() == mesh.vertices.len())
         && solution.lists.len() == mesh.patches.len()
         && solution.lists.iter().zip(&mesh.patches).all(|(list, p)| {
             list.iter().all(|e| {
@@ -360,6 +370,7 @@ pub fn save(solution: &Solution, scene: &Scene, path: &Path) -> Result<()> {
     let payload = PayloadOut {
         settings: &solution.settings,
         general: &solution.general,
+        caustic: &solution.caustic,
         lists: &solution.lists,
         stats: &solution.stats,
         vertex_count: solution.mesh.vertices.len() as u64,
@@ -471,6 +482,7 @@ pub fn load_from(path: &Path, reader: impl Read, scene: &Scene, accel: &dyn Acce
     // Internal structure.
     let patches = p.patch_vertex_counts.len();
     let structure_ok = p.general.len() as u64 == p.vertex_count
+        && (p.caustic.is_empty() || p.caustic.len() as u64 == p.vertex_count)
         && p.lists.len() == patches
         && p.patch_vertex_counts.iter().map(|&c| u64::from(c)).sum::<u64>() == p.vertex_count
         && p.lists.iter().zip(&p.patch_vertex_counts).all(|(list, &count)| {
@@ -519,7 +531,7 @@ pub fn load_from(path: &Path, reader: impl Read, scene: &Scene, accel: &dyn Acce
     }
 
     // Values.
-    if let Some(what) = non_finite(&p.settings, &p.general, &p.lists, &p.stats) {
+    if let Some(what) = non_finite(&p.settings, &p.general, &p.caustic, &p.lists, &p.stats) {
         return Err(bad(format!("damaged: {what}")));
     }
     let source_ok = |s: &SourceId| match *s {
@@ -540,6 +552,7 @@ pub fn load_from(path: &Path, reader: impl Read, scene: &Scene, accel: &dyn Acce
         mesh,
         settings: p.settings,
         general: p.general,
+        caustic: p.caustic,
         lists: p.lists,
         stats: p.stats,
     })

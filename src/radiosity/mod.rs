@@ -186,6 +186,11 @@ pub struct Solution {
     pub settings: SolveSettings,
     /// General radiosity per vertex: everything not kept apart.
     pub general: Vec<Rgb>,
+    /// The part of `general` that came from a light by way of mirrors only (light ->
+    /// mirror -> this vertex), per vertex; empty without such light. A final gather
+    /// cannot find it from a point or spot light, so it keeps it
+    /// ([`crate::render::gather`]).
+    pub caustic: Vec<Rgb>,
     /// Per patch, the sources kept apart.
     pub lists: Vec<Vec<ListEntry>>,
     /// Figures.
@@ -270,6 +275,7 @@ fn solve_inner(
         accel,
         settings,
         general: vec![Vec3::ZERO; nv],
+        caustic: Vec::new(),
         unshot: vec![Vec3::ZERO; nv],
         lists: vec![Vec::new(); mesh.patches.len()],
         folded: vec![BTreeSet::new(); mesh.patches.len()],
@@ -348,6 +354,7 @@ fn solve_inner(
         mesh: s.mesh,
         settings: *settings,
         general: s.general,
+        caustic: s.caustic,
         lists: s.lists,
         stats: s.stats,
     };
@@ -368,6 +375,8 @@ struct Solver<'a> {
     settings: &'a SolveSettings,
     mesh: RadiosityMesh,
     general: Vec<Rgb>,
+    /// See [`Solution::caustic`].
+    caustic: Vec<Rgb>,
     unshot: Vec<Rgb>,
     lists: Vec<Vec<ListEntry>>,
     /// Per patch, the sources already folded into its general radiosity: they may
@@ -530,6 +539,7 @@ impl Solver<'_> {
         };
         let slots = self.settings.sources_per_patch as usize;
         let mut general_b = vec![Vec3::ZERO; nv];
+        let mut caustic_b: Vec<Rgb> = Vec::new();
         let mut slot_b: Vec<Option<Vec<Rgb>>> = vec![None; slots];
         let tracer = photons::Tracer {
             scene: self.scene,
@@ -558,6 +568,10 @@ impl Solver<'_> {
                     let v = d.vertex as usize;
                     if d.slot == u8::MAX {
                         general_b[v] += d.value;
+                        if d.caustic {
+                            caustic_b.resize(nv, Vec3::ZERO);
+                            caustic_b[v] += d.value;
+                        }
                         if trace {
                             if let Some(src) = d.source {
                                 self.folded[self.mesh.vertices[v].patch as usize].insert(src);
@@ -586,6 +600,7 @@ impl Solver<'_> {
         for (g, b) in self.general.iter_mut().zip(&general_b) {
             *g += *b * scale;
         }
+        self.caustic = caustic_b.into_iter().map(|b| b * scale).collect();
         for (k, b) in slot_b.iter().enumerate() {
             let Some(b) = b else { continue };
             for (p, list) in self.lists.iter_mut().enumerate() {

@@ -42,6 +42,9 @@ pub struct Deposit {
     pub slot: u8,
     pub source: Option<SourceId>,
     pub value: Rgb,
+    /// Light by way of mirrors only (light -> mirror(s) -> here): see
+    /// [`super::Solution::caustic`].
+    pub caustic: bool,
 }
 
 /// What the photons read: the scene, its mesh, the lists (to route deposits) and
@@ -182,6 +185,8 @@ impl<'a> Tracer<'a> {
         rays: &mut u64,
     ) {
         let mut first = from_light;
+        // Still on a light -> mirror(s) path.
+        let mut caustic = from_light;
         for _ in 0..MAX_BOUNCES {
             let ray = Ray {
                 origin: if normal == Vec3::ZERO {
@@ -237,6 +242,7 @@ impl<'a> Tracer<'a> {
                                 slot,
                                 source,
                                 value: rho * power * (w.weights[k] / area),
+                                caustic,
                             });
                         }
                     }
@@ -251,6 +257,7 @@ impl<'a> Tracer<'a> {
                     return;
                 }
                 source = Some(SourceId::Patch(q));
+                caustic = false;
             } else if u < pd + ps && ps > 0.0 {
                 power *= spec / ps;
                 dir = dir - 2.0 * dir.dot(sp.ns) * sp.ns;

@@ -139,6 +139,7 @@ fn payload(
         .serialize(&PayloadOut {
             settings,
             general,
+            caustic: &[],
             lists,
             stats,
             vertex_count,
@@ -187,10 +188,11 @@ fn round_trip_gives_the_same_solution() {
     }
     assert_eq!(back.mesh, sol.mesh);
     assert_eq!(back.total(), sol.total());
+    assert_eq!(back.caustic, sol.caustic);
 
     // The header, field by field.
     assert_eq!(&bytes[..18], b"RADTRACE-SOLUTION\n");
-    assert_eq!(&bytes[18..22], &[5, 0, 0, 0]);
+    assert_eq!(&bytes[18..22], &[6, 0, 0, 0]);
     assert_eq!(
         u64::from_le_bytes(bytes[22..30].try_into().unwrap()),
         scene_fingerprint(scene)
@@ -389,12 +391,12 @@ fn another_version_is_refused_by_number() {
     bytes[18..22].copy_from_slice(&3u32.to_le_bytes());
     let msg = load_err(dir.path(), "v3.rts", &bytes);
     assert!(
-        msg.ends_with("made by another version of radtrace (format 3, this one reads 5)"),
+        msg.ends_with("made by another version of radtrace (format 3, this one reads 6)"),
         "{msg}"
     );
     // Even with nothing after the version field.
     let msg = load_err(dir.path(), "v7.rts", &[&MAGIC[..], &7u32.to_le_bytes()].concat());
-    assert!(msg.contains("(format 7, this one reads 5)"), "{msg}");
+    assert!(msg.contains("(format 7, this one reads 6)"), "{msg}");
 }
 
 #[test]
