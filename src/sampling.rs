@@ -30,6 +30,8 @@ pub enum Stream {
     /// The points a point or spot light's shot samples on the mixed pieces of patch
     /// `p` (pass 1: the power a light's shot passes on).
     Piece(u32),
+    /// The directions of a final gather at a point of the image (pass 2).
+    Gather,
 }
 
 impl Stream {
@@ -43,6 +45,7 @@ impl Stream {
             Stream::Receiver(v) => v.wrapping_mul(0xc2b2_ae35) ^ 0x27d4_eb2f,
             Stream::Cells(k) => k.wrapping_mul(0x1656_67b1) ^ 0x9e37_79b9,
             Stream::Piece(p) => p.wrapping_mul(0x27d4_eb2f) ^ 0x1656_67b1,
+            Stream::Gather => 0x7feb_352d,
         }
     }
 }

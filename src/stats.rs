@@ -271,6 +271,9 @@ mod tests {
             diffuse_hits: 3,
             reflection_rays: 4,
             shadow_rays_saved: 5,
+            gather_rays: 7,
+            gather_records: 8,
+            gather_reused: 9,
             sources: vec![src(1, 2)],
         };
         a += Counters {
@@ -279,6 +282,9 @@ mod tests {
             diffuse_hits: 30,
             reflection_rays: 40,
             shadow_rays_saved: 50,
+            gather_rays: 70,
+            gather_records: 80,
+            gather_reused: 90,
             sources: vec![src(10, 20), src(5, 6)],
         };
         assert_eq!(
@@ -289,6 +295,9 @@ mod tests {
                 diffuse_hits: 33,
                 reflection_rays: 44,
                 shadow_rays_saved: 55,
+                gather_rays: 77,
+                gather_records: 88,
+                gather_reused: 99,
                 sources: vec![src(11, 22), src(5, 6)],
             }
         );

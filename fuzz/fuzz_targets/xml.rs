@@ -63,6 +63,7 @@ fuzz_target!(|data: &[u8]| {
         seed: 1,
         area_samples: 2,
         max_depth: 2,
+        gather: 0,
         filter: Filter::Box,
         sampler: Sampler::Uniform,
         refine: Refine::default(),

@@ -354,6 +354,13 @@ pub struct ImageArgs {
     /// Maximum number of mirror reflections followed.
     #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u32).range(0..=64))]
     pub(super) max_depth: u32,
+    /// Final gather (the paper's last step): at the first diffuse hit of a camera ray,
+    /// the light not ray traced from the patch's sources is gathered with this many
+    /// cosine-distributed rays that read the radiosity solution, at a grid of the
+    /// screen every 4 pixels and anew where those records do not reach (0: interpolate
+    /// the solution at the hit).
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=4096))]
+    pub(super) gather: u32,
     /// Pixel reconstruction filter.
     #[arg(long, value_enum, default_value_t = Filter::Gaussian)]
     pub(super) filter: Filter,
@@ -506,6 +513,7 @@ impl ImageArgs {
             seed: self.seed,
             area_samples: self.area_samples,
             max_depth: self.max_depth,
+            gather: self.gather,
             filter: self.filter,
             sampler,
             refine,

@@ -64,6 +64,7 @@ pub(super) fn cmd_tables(a: TablesArgs) -> Result<()> {
             seed: a.image.seed,
             area_samples: a.image.area_samples,
             max_depth: a.image.max_depth,
+            gather: a.image.gather,
             filter: a.image.filter,
             max_level: a.refine.max_level,
             contrast: a.refine.contrast,

@@ -467,6 +467,7 @@ fn render_view(
         seed: plan.options.seed,
         area_samples: 64,
         max_depth: 6,
+        gather: 0,
         filter: Filter::Gaussian,
         sampler: Sampler::Adaptive,
         refine: Refine::default(),

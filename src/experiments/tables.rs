@@ -76,6 +76,8 @@ pub struct TablesPlan {
     pub area_samples: u32,
     /// Mirror reflections followed at most.
     pub max_depth: u32,
+    /// Rays per final gather (0: none).
+    pub gather: u32,
     /// Reconstruction filter.
     pub filter: Filter,
     /// Highest level of the adaptive sampler.
@@ -118,6 +120,7 @@ impl TablesPlan {
             seed: self.seed,
             area_samples: self.area_samples,
             max_depth: self.max_depth,
+            gather: self.gather,
             filter: self.filter,
             sampler: Sampler::Adaptive,
             refine: Refine {

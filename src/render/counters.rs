@@ -21,6 +21,12 @@ pub struct Counters {
     pub reflection_rays: u64,
     /// Shadow rays not cast because the shadow image buffer's neighbours agreed.
     pub shadow_rays_saved: u64,
+    /// Rays of the final gather (`--gather`, [`super::gather`]).
+    pub gather_rays: u64,
+    /// Gather records made at the screen's grid.
+    pub gather_records: u64,
+    /// Hits that took their gather from the records (the others gathered anew).
+    pub gather_reused: u64,
     /// Per ray-traced source (the scene's lights first, in order, then selected
     /// radiant patches): the diffuse hits that sampled it and the shadow rays cast.
     pub sources: Vec<SourceCount>,
@@ -61,6 +67,9 @@ impl AddAssign for Counters {
         self.diffuse_hits += o.diffuse_hits;
         self.reflection_rays += o.reflection_rays;
         self.shadow_rays_saved += o.shadow_rays_saved;
+        self.gather_rays += o.gather_rays;
+        self.gather_records += o.gather_records;
+        self.gather_reused += o.gather_reused;
         if self.sources.len() < o.sources.len() {
             self.sources.resize(o.sources.len(), SourceCount::default());
         }

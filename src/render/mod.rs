@@ -10,6 +10,7 @@ pub mod adaptive;
 pub mod counters;
 pub mod debug;
 pub mod film;
+pub mod gather;
 pub mod shading;
 pub mod sib;
 
@@ -30,6 +31,7 @@ pub use counters::{Counters, LevelStats};
 pub use crate::selection::Method;
 pub use adaptive::{Refine, SampleSet};
 pub use film::{film_rows, Film, FilmSample, Filter};
+pub use gather::Gather;
 pub use shading::Tracer;
 
 /// How the image is sampled.
@@ -74,6 +76,8 @@ pub struct Settings {
     pub area_samples: u32,
     /// Maximum number of mirror reflections followed.
     pub max_depth: u32,
+    /// Rays of the final gather at each gather point (0: none; [`gather`]).
+    pub gather: u32,
     /// Pixel reconstruction filter.
     pub filter: Filter,
     /// The image sampler.
@@ -126,7 +130,7 @@ pub fn render(
     progress: &dyn Progress,
 ) -> Result<Output> {
     settings.validate()?;
-    let tracer = match (settings.method, selection) {
+    let mut tracer = match (settings.method, selection) {
         (Method::Direct, _) => Tracer::new(scene, accel, settings),
         (_, Some(sel)) => Tracer::with_selection(scene, accel, settings, sel),
         (m, None) => {
@@ -138,14 +142,38 @@ pub fn render(
     };
     let sensor = scene.sensor(settings.view)?;
     let camera = Camera::new(sensor, settings.width, settings.height);
-    match settings.sampler {
+    let start = Instant::now();
+    let mut first = Counters::with_sources(tracer.source_count());
+    if let (true, Some(sel)) = (
+        settings.gather > 0 && settings.method != Method::Direct,
+        selection,
+    ) {
+        let n = sel.solution.settings.sources_per_patch as usize;
+        if n < scene.lights.len() {
+            return Err(Error::Usage(format!(
+                "--gather needs every light kept apart on the lists, but the solution keeps {n} sources per patch \
+                 and the scene has {} lights: solve with --sources-per-patch {} or more",
+                scene.lights.len(),
+                scene.lights.len()
+            )));
+        }
+        let ctx = gather::Context {
+            scene,
+            accel,
+            mesh: &sel.solution.mesh,
+            solution: sel.solution,
+        };
+        let mut g = Gather::new(&ctx, settings.gather);
+        first += g.record(&ctx, &camera, settings);
+        tracer.set_gather(g);
+    }
+    let mut out = match settings.sampler {
         Sampler::Adaptive => {
-            let start = Instant::now();
             let out = adaptive::render_adaptive(&tracer, &camera, settings, &settings.refine, progress);
             let trace_s = start.elapsed().as_secs_f64();
             let start = Instant::now();
             let image = out.set.reconstruct(settings.filter);
-            Ok(Output {
+            Output {
                 non_finite_pixels: image.non_finite_pixels(),
                 image,
                 counters: out.counters,
@@ -153,10 +181,13 @@ pub fn render(
                 samples: Some(out.set),
                 trace_s,
                 reconstruct_s: start.elapsed().as_secs_f64(),
-            })
+            }
         }
-        Sampler::Uniform => Ok(render_uniform(&tracer, &camera, settings, progress)),
-    }
+        Sampler::Uniform => render_uniform(&tracer, &camera, settings, progress),
+    };
+    first += std::mem::take(&mut out.counters);
+    out.counters = first;
+    Ok(out)
 }
 
 /// `settings.spp` jittered samples in every pixel.

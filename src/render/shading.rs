@@ -3,6 +3,7 @@
 use glam::{Vec2, Vec3};
 
 use super::counters::Counters;
+use super::gather::{self, Gather};
 use super::sib::{self, SibQuery};
 use super::Settings;
 use crate::accel::{Accel, Ray};
@@ -37,6 +38,8 @@ pub struct Tracer<'a> {
     area_samples: u32,
     max_depth: u32,
     diffuse: Diffuse<'a>,
+    /// The final gather at first diffuse hits (`--gather`), if on.
+    gather: Option<Gather>,
 }
 
 impl<'a> Tracer<'a> {
@@ -60,6 +63,7 @@ impl<'a> Tracer<'a> {
             area_samples,
             max_depth: settings.max_depth,
             diffuse: Diffuse::Direct(picks),
+            gather: None,
         }
     }
 
@@ -81,7 +85,13 @@ impl<'a> Tracer<'a> {
                 mesh: &selection.solution.mesh,
                 selection,
             },
+            gather: None,
         }
+    }
+
+    /// Gathers at first diffuse hits with `gather` (see [`gather`]).
+    pub fn set_gather(&mut self, gather: Gather) {
+        self.gather = Some(gather);
     }
 
     /// Number of ray-traced sources (the length of [`Counters::sources`]).
@@ -163,6 +173,23 @@ impl<'a> Tracer<'a> {
                     let interp = mesh.locate(self.scene, &hit, sp.p, sp.front);
                     let mut sum = interp.apply(&selection.stored) * std::f32::consts::FRAC_1_PI;
                     let patch = mesh.vertices[interp.vertices[0] as usize].patch;
+                    if let (Some(g), 0) = (&self.gather, depth) {
+                        // The paper's last step: the gather replaces the general
+                        // radiosity (see `gather` for the one route per source).
+                        let ctx = gather::Context {
+                            scene: self.scene,
+                            accel: self.accel,
+                            mesh,
+                            solution: selection.solution,
+                        };
+                        let e = g.irradiance(&ctx, &sp, patch, seed, counters);
+                        let sol = &selection.solution;
+                        let mut replaced = interp.apply(&sol.general);
+                        if !sol.caustic.is_empty() {
+                            replaced -= interp.apply(&sol.caustic);
+                        }
+                        sum += (bsdf.kind.diffuse_albedo() * e - replaced) * std::f32::consts::FRAC_1_PI;
+                    }
                     for pick in selection.picks(patch) {
                         sum += self.sample_source(*pick, &shade, counters, sib.as_deref_mut(), usable);
                     }
@@ -322,6 +349,7 @@ mod tests {
             seed: 0,
             area_samples,
             max_depth: 4,
+            gather: 0,
             filter: Filter::Box,
             sampler: crate::render::Sampler::Uniform,
             refine: crate::render::Refine::default(),

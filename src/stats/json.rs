@@ -273,6 +273,14 @@ pub struct RenderStats {
     pub diffuse_hits: u64,
     /// Mirror reflection rays.
     pub reflection_rays: u64,
+    /// Rays per final gather (0: none).
+    pub gather: u32,
+    /// Final gather rays cast.
+    pub gather_rays: u64,
+    /// Final gather records at the screen's grid.
+    pub gather_records: u64,
+    /// Diffuse hits that took their gather from the records.
+    pub gather_reused: u64,
     /// `shadow_rays / diffuse_hits`.
     pub shadow_rays_per_hit: f64,
     /// Pixels that are NaN or infinite.
@@ -359,6 +367,10 @@ impl RenderStats {
             shadow_rays_saved: c.shadow_rays_saved,
             diffuse_hits: c.diffuse_hits,
             reflection_rays: c.reflection_rays,
+            gather: settings.gather,
+            gather_rays: c.gather_rays,
+            gather_records: c.gather_records,
+            gather_reused: c.gather_reused,
             shadow_rays_per_hit: c.rays_per_hit(),
             non_finite_pixels: out.non_finite_pixels,
             levels: out.levels.clone(),

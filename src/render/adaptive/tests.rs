@@ -46,6 +46,7 @@ fn settings(w: u32, h: u32, sib: bool) -> Settings {
         seed: 7,
         area_samples: 16,
         max_depth: 2,
+        gather: 0,
         filter: Filter::Box,
         sampler: Sampler::Adaptive,
         refine: Refine {
