@@ -11,10 +11,10 @@
 //! - a gather ray that reaches a surface reads its total reflected radiosity, unless
 //!   the surface is a radiant patch listed on the hit's patch (its light comes by the
 //!   list, ray traced or stored);
-//! - emission counts nowhere: every light that reaches the patch is on its list
-//!   (the gather asks for lists that hold every light, `--sources-per-patch` at
-//!   least the number of lights, as the default is), so its direct light comes by
-//!   the list;
+//! - no ray counts emission: a light on the list comes by the list, and one folded
+//!   into the general radiosity (with fewer `--sources-per-patch` than lights) is
+//!   sampled with shadow rays instead (the paper's "light sources ... that failed to
+//!   enter the list ... are sampled"), see [`Gather::folded_lights`];
 //! - a ray follows mirrors (up to [`MAX_MIRRORS`]) and reads the total radiosity of
 //!   every diffuse surface it meets there (the lists hold direct light only); light
 //!   from a light by way of mirrors alone is the solution's caustic part
@@ -37,11 +37,12 @@ use rayon::prelude::*;
 use super::counters::Counters;
 use crate::accel::Accel;
 use crate::camera::Camera;
+use crate::emitters::{group_bounds, sub_source_uv, SampledLight};
 use crate::interaction::SurfacePoint;
 use crate::mesh::RadiosityMesh;
 use crate::radiosity::Solution;
 use crate::radiosity::SourceId;
-use crate::sampling::{derive, pixel_seed, uniform2, Stream};
+use crate::sampling::{derive, pixel_seed, uniform2, uniform3, Stream};
 use crate::scene::{Rgb, Scene};
 
 /// Screen pixels between the records of the first gather.
@@ -52,6 +53,9 @@ pub const SPACING: u32 = 4;
 const MIN_STEPS: f32 = 0.5;
 /// ...and at most this many.
 const MAX_STEPS: f32 = 8.0;
+/// Shadow rays to an area light folded into a patch's general radiosity, at each
+/// hit that gathers (see [`Gather::folded_lights`]).
+const FOLDED_AREA_RAYS: u32 = 16;
 /// Mirror reflections a gather ray follows at most.
 const MAX_MIRRORS: u32 = 4;
 /// A record serves a point within this share of its radius (Ward's accuracy `a`,
@@ -77,6 +81,9 @@ struct Record {
 pub struct Gather {
     rays: u32,
     total: Vec<Rgb>,
+    /// Every scene light, for the shadow rays to point and spot lights that are not
+    /// on a patch's list.
+    lights: Vec<SampledLight>,
     records: Vec<Record>,
     /// Level k: cells of `cell * 2^k`, each with the records whose sphere (of radius
     /// `ACCURACY * radius` at most one cell) overlaps it.
@@ -100,6 +107,7 @@ impl Gather {
         Gather {
             rays,
             total: ctx.solution.total(),
+            lights: SampledLight::prepare_all(ctx.scene),
             records: Vec::new(),
             grid: HashMap::new(),
             cell: 1.0,
@@ -281,6 +289,49 @@ impl Gather {
             f32::INFINITY
         };
         (e / n as f32, harmonic)
+    }
+
+    /// Irradiance at `sp` on `patch` from the lights not on the patch's list (they
+    /// were folded into its general radiosity): shadow rays, one to a point or spot
+    /// light (no gather ray finds it), [`FOLDED_AREA_RAYS`] to an area light (a
+    /// gather ray could meet it, but a small bright source would make the records
+    /// noisy, and their radii, which its hits lengthen, biased). `seed` picks the
+    /// light points.
+    pub fn folded_lights(
+        &self,
+        ctx: &Context,
+        sp: &SurfacePoint,
+        patch: u32,
+        seed: u32,
+        counters: &mut Counters,
+    ) -> Rgb {
+        let list = &ctx.solution.lists[patch as usize];
+        let mut e = Vec3::ZERO;
+        for (i, l) in self.lights.iter().enumerate() {
+            if list.iter().any(|x| x.source == SourceId::Light(i as u32)) {
+                continue;
+            }
+            let n = if l.is_area() { FOLDED_AREA_RAYS } else { 1 };
+            let light_seed = derive(seed, Stream::Light(i as u32));
+            for g in 0..n {
+                let uv = if l.is_area() {
+                    let (a, b) = group_bounds(g, n, n);
+                    sub_source_uv(a, b, n, uniform3(light_seed, g))
+                } else {
+                    Vec2::ZERO
+                };
+                let Some(s) = l.sample(sp.p, uv) else { continue };
+                let cos = sp.ns.dot(s.dir);
+                if cos <= 0.0 || sp.ng.dot(s.dir) <= 0.0 {
+                    continue;
+                }
+                counters.shadow_rays += 1;
+                if !ctx.accel.occluded(&sp.shadow_ray(s.point, s.normal)) {
+                    e += s.value * (cos / n as f32);
+                }
+            }
+        }
+        e
     }
 }
 

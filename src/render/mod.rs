@@ -148,15 +148,6 @@ pub fn render(
         settings.gather > 0 && settings.method != Method::Direct,
         selection,
     ) {
-        let n = sel.solution.settings.sources_per_patch as usize;
-        if n < scene.lights.len() {
-            return Err(Error::Usage(format!(
-                "--gather needs every light kept apart on the lists, but the solution keeps {n} sources per patch \
-                 and the scene has {} lights: solve with --sources-per-patch {} or more",
-                scene.lights.len(),
-                scene.lights.len()
-            )));
-        }
         let ctx = gather::Context {
             scene,
             accel,

@@ -182,7 +182,8 @@ impl<'a> Tracer<'a> {
                             mesh,
                             solution: selection.solution,
                         };
-                        let e = g.irradiance(&ctx, &sp, patch, seed, counters);
+                        let e = g.irradiance(&ctx, &sp, patch, seed, counters)
+                            + g.folded_lights(&ctx, &sp, patch, derive(seed, Stream::Gather), counters);
                         let sol = &selection.solution;
                         let mut replaced = interp.apply(&sol.general);
                         if !sol.caustic.is_empty() {
