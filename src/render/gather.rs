@@ -37,12 +37,12 @@ use rayon::prelude::*;
 use super::counters::Counters;
 use crate::accel::Accel;
 use crate::camera::Camera;
-use crate::emitters::{group_bounds, sub_source_uv, SampledLight};
+use crate::emitters::{group_point, SampledLight};
 use crate::interaction::SurfacePoint;
 use crate::mesh::RadiosityMesh;
 use crate::radiosity::Solution;
 use crate::radiosity::SourceId;
-use crate::sampling::{derive, pixel_seed, uniform2, uniform3, Stream};
+use crate::sampling::{derive, pixel_seed, uniform2, Stream};
 use crate::scene::{Rgb, Scene};
 
 /// Screen pixels between the records of the first gather.
@@ -314,12 +314,7 @@ impl Gather {
             let n = if l.is_area() { FOLDED_AREA_RAYS } else { 1 };
             let light_seed = derive(seed, Stream::Light(i as u32));
             for g in 0..n {
-                let uv = if l.is_area() {
-                    let (a, b) = group_bounds(g, n, n);
-                    sub_source_uv(a, b, n, uniform3(light_seed, g))
-                } else {
-                    Vec2::ZERO
-                };
+                let (_, _, uv) = group_point(g, n, n, light_seed);
                 let Some(s) = l.sample(sp.p, uv) else { continue };
                 let cos = sp.ns.dot(s.dir);
                 if cos <= 0.0 || sp.ng.dot(s.dir) <= 0.0 {

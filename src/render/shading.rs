@@ -1,16 +1,16 @@
 //! Shading at ray hits: emission, direct light by shadow rays, mirror reflection.
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
 use super::counters::Counters;
 use super::gather::{self, Gather};
 use super::sib::{self, SibQuery};
 use super::Settings;
 use crate::accel::{Accel, Ray};
-use crate::emitters::{group_bounds, sub_source_uv, SampledLight};
+use crate::emitters::{group_point, SampledLight};
 use crate::interaction::SurfacePoint;
 use crate::mesh::RadiosityMesh;
-use crate::sampling::{derive, uniform3, Stream};
+use crate::sampling::{derive, Stream};
 use crate::scene::{Bsdf, Rgb, Scene};
 use crate::selection::{Pick, Selection};
 
@@ -237,12 +237,7 @@ impl<'a> Tracer<'a> {
         let mut acc = Vec3::ZERO;
         let (mut cast, mut saved) = (0, 0);
         for g in 0..r {
-            let (a, b) = group_bounds(g, r, n);
-            let uv = if n > 1 {
-                sub_source_uv(a, b, n, uniform3(light_seed, g))
-            } else {
-                Vec2::ZERO
-            };
+            let (a, b, uv) = group_point(g, r, n, light_seed);
             let Some(s) = light.sample(sp.p, uv) else { continue };
             let cos_l = sp.ns.dot(s.dir);
             // No shadow ray towards a light behind the surface (paper Sect. 6).
