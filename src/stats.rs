@@ -110,6 +110,21 @@ pub fn table1(
             patches.shadow_rays
         );
     }
+    if c.gather_rays > 0 {
+        let _ = writeln!(out);
+        let _ = writeln!(
+            out,
+            "final gather: {} rays, {} records; {} of {} diffuse hits served by the records ({:.0} %)",
+            c.gather_rays,
+            c.gather_records,
+            c.gather_reused,
+            c.diffuse_hits,
+            percent_of(
+                c.gather_reused,
+                c.diffuse_hits - c.gather_reused.min(c.diffuse_hits)
+            ),
+        );
+    }
     out
 }
 
@@ -358,6 +373,20 @@ mod tests {
         assert!(t
             .lines()
             .any(|l| l.starts_with("local") && l.trim_end().ends_with('-')));
+        // No gather, no gather line; with one, its rays, records and reuse.
+        assert!(!t.contains("final gather"), "{t}");
+        let g = Counters {
+            gather_rays: 1_509_564,
+            gather_records: 16_384,
+            gather_reused: 310_567,
+            ..c
+        };
+        let t = table1("room", "local", &g, &names, None);
+        assert!(
+            t.lines().any(|l| l
+                == "final gather: 1509564 rays, 16384 records; 310567 of 414089 diffuse hits served by the records (75 %)"),
+            "{t}"
+        );
     }
 
     #[test]
