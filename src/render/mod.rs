@@ -130,6 +130,12 @@ pub fn render(
     progress: &dyn Progress,
 ) -> Result<Output> {
     settings.validate()?;
+    if settings.gather > 0 && settings.method == Method::Direct {
+        return Err(Error::Usage(
+            "--gather reads a radiosity solution, and --method direct has none: use another method or drop --gather"
+                .into(),
+        ));
+    }
     let mut tracer = match (settings.method, selection) {
         (Method::Direct, _) => Tracer::new(scene, accel, settings),
         (_, Some(sel)) => Tracer::with_selection(scene, accel, settings, sel),

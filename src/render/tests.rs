@@ -329,6 +329,11 @@ fn a_gather_in_a_box_of_constant_radiosity_gives_the_closed_form() {
     // Without the gather, the pixels show the stored c / pi instead.
     st.gather = 0;
     let plain = draw(&s, &bvh, &st, Some(&sel));
+    // `direct` has no solution to gather from: a clear error, not a silent no-op.
+    let mut direct = settings(Method::Direct);
+    direct.gather = 16;
+    let err = render(&s, &bvh, &direct, None, &crate::progress::Silent).unwrap_err();
+    assert!(err.to_string().contains("--method direct"), "{err}");
     let stored = sol.general[0] * std::f32::consts::FRAC_1_PI;
     assert!((plain.image.pixels[0] - stored).abs().max_element() < 1e-4 * stored.max_element());
 }
