@@ -13,8 +13,7 @@
 //!   list, ray traced or stored);
 //! - no ray counts emission: a light on the list comes by the list, and one folded
 //!   into the general radiosity (with fewer `--sources-per-patch` than lights) is
-//!   sampled with shadow rays instead (the paper's "light sources ... that failed to
-//!   enter the list ... are sampled"), see [`Gather::folded_lights`];
+//!   sampled with shadow rays instead, see [`Gather::folded`];
 //! - a ray follows mirrors (up to [`MAX_MIRRORS`]) and reads the total radiosity of
 //!   every diffuse surface it meets there (the lists hold direct light only); light
 //!   from a light by way of mirrors alone is the solution's caustic part
@@ -37,9 +36,7 @@ use rayon::prelude::*;
 use super::counters::Counters;
 use crate::accel::Accel;
 use crate::camera::Camera;
-use crate::emitters::{group_point, SampledLight};
 use crate::interaction::SurfacePoint;
-use crate::mesh::RadiosityMesh;
 use crate::radiosity::Solution;
 use crate::radiosity::SourceId;
 use crate::sampling::{derive, pixel_seed, uniform2, Stream};
@@ -54,8 +51,8 @@ const MIN_STEPS: f32 = 0.5;
 /// ...and at most this many.
 const MAX_STEPS: f32 = 8.0;
 /// Shadow rays to an area light folded into a patch's general radiosity, at each
-/// hit that gathers (see [`Gather::folded_lights`]).
-const FOLDED_AREA_RAYS: u32 = 16;
+/// hit that gathers (see [`Gather::folded`]).
+pub const FOLDED_AREA_RAYS: u32 = 16;
 /// A hit that no record serves gathers for itself with 1 / `ANEW_SHARE` of the rays
 /// (at least one): such hits are a few per cent of all, but each is one pixel's, so their
 /// noise is fine-grained, where a record's spreads over its neighbourhood (paper
@@ -83,14 +80,18 @@ struct Record {
     e: Rgb,
 }
 
-/// The gather of one render: its rays per point, the solution's total radiosity per
-/// vertex, and the records of the first gather with their lookup grid.
+/// The gather of one render: its rays per point, what it reads and keeps of the
+/// solution, and the records of the first gather with their lookup grid.
 pub struct Gather {
     rays: u32,
     total: Vec<Rgb>,
-    /// Every scene light, for the shadow rays to point and spot lights that are not
-    /// on a patch's list.
-    lights: Vec<SampledLight>,
+    /// Per vertex, the part of the selection's stored radiosity that the gather keeps:
+    /// the stored contributions of listed sources not ray traced, and the caustic
+    /// part of the general radiosity.
+    kept: Vec<Rgb>,
+    /// Per patch, the lights folded into its general radiosity (none unless the
+    /// lists are shorter than the lights).
+    folded: Vec<Vec<u32>>,
     records: Vec<Record>,
     /// Level k: cells of `cell * 2^k`, each with the records whose sphere (of radius
     /// `ACCURACY * radius` at most one cell) overlaps it.
@@ -104,17 +105,39 @@ pub struct Gather {
 pub struct Context<'a> {
     pub scene: &'a Scene,
     pub accel: &'a dyn Accel,
-    pub mesh: &'a RadiosityMesh,
     pub solution: &'a Solution,
 }
 
 impl Gather {
-    /// A gather of `rays` rays per point, with no records yet.
-    pub fn new(ctx: &Context, rays: u32) -> Self {
+    /// A gather of `rays` rays per point for the selection whose per-vertex stored
+    /// radiosity is `stored` ([`crate::selection::Selection::stored`]), with no
+    /// records yet.
+    pub fn new(ctx: &Context, rays: u32, stored: &[Rgb]) -> Self {
+        let sol = ctx.solution;
+        let mut kept: Vec<Rgb> = stored.iter().zip(&sol.general).map(|(s, g)| *s - *g).collect();
+        for (k, c) in kept.iter_mut().zip(&sol.caustic) {
+            *k += *c;
+        }
+        // A light is folded only where a list had no room for it: with as many
+        // sources per patch as lights, one missing from a list never reached it.
+        let lights = ctx.scene.lights.len() as u32;
+        let folded = if sol.settings.sources_per_patch < lights {
+            sol.lists
+                .iter()
+                .map(|list| {
+                    (0..lights)
+                        .filter(|&l| !list.iter().any(|e| e.source == SourceId::Light(l)))
+                        .collect()
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         Gather {
             rays,
-            total: ctx.solution.total(),
-            lights: SampledLight::prepare_all(ctx.scene),
+            total: sol.total(),
+            kept,
+            folded,
             records: Vec::new(),
             grid: HashMap::new(),
             cell: 1.0,
@@ -237,6 +260,20 @@ impl Gather {
             .0
     }
 
+    /// The part of the stored radiosity the gather keeps, at the point `interp`.
+    pub fn kept(&self, interp: &crate::mesh::Interp) -> Rgb {
+        interp.apply(&self.kept)
+    }
+
+    /// The lights folded into `patch`'s general radiosity: no gather ray finds a
+    /// point light, and a small bright area light would make the records noisy (and
+    /// their radii, which its hits lengthen, biased), so the hit samples them with
+    /// shadow rays (the paper's "light sources ... that failed to enter the list ...
+    /// are sampled").
+    pub fn folded(&self, patch: u32) -> &[u32] {
+        self.folded.get(patch as usize).map_or(&[], Vec::as_slice)
+    }
+
     /// Gathers at `sp` on `patch`: the irradiance of the light that the patch's list
     /// does not bring, and the harmonic mean distance of what the rays met.
     fn gather(
@@ -276,9 +313,14 @@ impl Gather {
                     break;
                 }
                 if bsdf.kind.has_diffuse() {
-                    let q = ctx.mesh.patch_at(ctx.scene, &hit, y.front);
+                    let q = ctx.solution.mesh.patch_at(ctx.scene, &hit, y.front);
                     if bounce > 0 || !listed(SourceId::Patch(q)) {
-                        e += through * ctx.mesh.locate_on(ctx.scene, q, &hit, y.p).apply(&self.total);
+                        e += through
+                            * ctx
+                                .solution
+                                .mesh
+                                .locate_on(ctx.scene, q, &hit, y.p)
+                                .apply(&self.total);
                     }
                 }
                 let m = bsdf.kind.mirror((-ray.dir).dot(y.ns));
@@ -298,44 +340,6 @@ impl Gather {
         };
         (e / n as f32, harmonic)
     }
-
-    /// Irradiance at `sp` on `patch` from the lights not on the patch's list (they
-    /// were folded into its general radiosity): shadow rays, one to a point or spot
-    /// light (no gather ray finds it), [`FOLDED_AREA_RAYS`] to an area light (a
-    /// gather ray could meet it, but a small bright source would make the records
-    /// noisy, and their radii, which its hits lengthen, biased). `seed` picks the
-    /// light points.
-    pub fn folded_lights(
-        &self,
-        ctx: &Context,
-        sp: &SurfacePoint,
-        patch: u32,
-        seed: u32,
-        counters: &mut Counters,
-    ) -> Rgb {
-        let list = &ctx.solution.lists[patch as usize];
-        let mut e = Vec3::ZERO;
-        for (i, l) in self.lights.iter().enumerate() {
-            if list.iter().any(|x| x.source == SourceId::Light(i as u32)) {
-                continue;
-            }
-            let n = if l.is_area() { FOLDED_AREA_RAYS } else { 1 };
-            let light_seed = derive(seed, Stream::Light(i as u32));
-            for g in 0..n {
-                let (_, _, uv) = group_point(g, n, n, light_seed);
-                let Some(s) = l.sample(sp.p, uv) else { continue };
-                let cos = sp.ns.dot(s.dir);
-                if cos <= 0.0 || sp.ng.dot(s.dir) <= 0.0 {
-                    continue;
-                }
-                counters.shadow_rays += 1;
-                if !ctx.accel.occluded(&sp.shadow_ray(s.point, s.normal)) {
-                    e += s.value * (cos / n as f32);
-                }
-            }
-        }
-        e
-    }
 }
 
 /// The patch whose general radiosity a gather at `sp` replaces: a diffuse surface
@@ -344,5 +348,5 @@ pub(super) fn gatherable(ctx: &Context, sp: &SurfacePoint, hit: &crate::accel::H
     let shape = &ctx.scene.shapes[hit.shape as usize];
     let bsdf = &ctx.scene.bsdfs[shape.bsdf as usize];
     (bsdf.kind.has_diffuse() && (sp.front || bsdf.twosided))
-        .then(|| ctx.mesh.patch_at(ctx.scene, hit, sp.front))
+        .then(|| ctx.solution.mesh.patch_at(ctx.scene, hit, sp.front))
 }

@@ -150,17 +150,13 @@ pub fn render(
     let camera = Camera::new(sensor, settings.width, settings.height);
     let start = Instant::now();
     let mut first = Counters::with_sources(tracer.source_count());
-    if let (true, Some(sel)) = (
-        settings.gather > 0 && settings.method != Method::Direct,
-        selection,
-    ) {
+    if let (true, Some(sel)) = (settings.gather > 0, selection) {
         let ctx = gather::Context {
             scene,
             accel,
-            mesh: &sel.solution.mesh,
             solution: sel.solution,
         };
-        let mut g = Gather::new(&ctx, settings.gather);
+        let mut g = Gather::new(&ctx, settings.gather, &sel.stored);
         first += g.record(&ctx, &camera, settings);
         tracer.set_gather(g);
     }

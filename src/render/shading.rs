@@ -171,26 +171,38 @@ impl<'a> Tracer<'a> {
                     // Diffuse radiance L = B / pi, B interpolated from the mesh
                     // vertices, plus the ray-traced sources of the patch.
                     let interp = mesh.locate(self.scene, &hit, sp.p, sp.front);
-                    let mut sum = interp.apply(&selection.stored) * std::f32::consts::FRAC_1_PI;
                     let patch = mesh.vertices[interp.vertices[0] as usize].patch;
-                    if let (Some(g), 0) = (&self.gather, depth) {
+                    let mut sum = match (&self.gather, depth) {
                         // The paper's last step: the gather replaces the general
-                        // radiosity (see `gather` for the one route per source).
-                        let ctx = gather::Context {
-                            scene: self.scene,
-                            accel: self.accel,
-                            mesh,
-                            solution: selection.solution,
-                        };
-                        let e = g.irradiance(&ctx, &sp, patch, seed, counters)
-                            + g.folded_lights(&ctx, &sp, patch, derive(seed, Stream::Gather), counters);
-                        let sol = &selection.solution;
-                        let mut replaced = interp.apply(&sol.general);
-                        if !sol.caustic.is_empty() {
-                            replaced -= interp.apply(&sol.caustic);
+                        // radiosity but its caustic part (see `gather` for the one
+                        // route per source), and the lights folded there are sampled.
+                        (Some(g), 0) => {
+                            let ctx = gather::Context {
+                                scene: self.scene,
+                                accel: self.accel,
+                                solution: selection.solution,
+                            };
+                            let e = g.irradiance(&ctx, &sp, patch, seed, counters);
+                            let mut sum = (g.kept(&interp) + bsdf.kind.diffuse_albedo() * e)
+                                * std::f32::consts::FRAC_1_PI;
+                            for &l in g.folded(patch) {
+                                let rays = if self.sources[l as usize].is_area() {
+                                    gather::FOLDED_AREA_RAYS
+                                } else {
+                                    1
+                                };
+                                sum += self.sample_source(
+                                    Pick { source: l, rays },
+                                    &shade,
+                                    counters,
+                                    None,
+                                    false,
+                                );
+                            }
+                            sum
                         }
-                        sum += (bsdf.kind.diffuse_albedo() * e - replaced) * std::f32::consts::FRAC_1_PI;
-                    }
+                        _ => interp.apply(&selection.stored) * std::f32::consts::FRAC_1_PI,
+                    };
                     for pick in selection.picks(patch) {
                         sum += self.sample_source(*pick, &shade, counters, sib.as_deref_mut(), usable);
                     }
