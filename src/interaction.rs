@@ -88,6 +88,12 @@ pub fn ray_epsilon(p: Vec3) -> f32 {
 /// point on a surface is, relative to that distance (pbrt-v4's `ShadowEpsilon`).
 pub const SHADOW_EPSILON: f32 = 1e-4;
 
+/// The mirror reflection of direction `d` about the unit normal `n` (the one rule of
+/// both passes: shading, the gather, the photons).
+pub fn reflect(d: Vec3, n: Vec3) -> Vec3 {
+    d - 2.0 * d.dot(n) * n
+}
+
 /// `p`, on a surface with normal `n`, moved off it by [`ray_epsilon`] to the side
 /// that `towards` points to.
 pub fn offset_from(p: Vec3, n: Vec3, towards: Vec3) -> Vec3 {

@@ -20,7 +20,7 @@ use rayon::prelude::*;
 
 use crate::accel::{Accel, Ray};
 use crate::emitters::SampledLight;
-use crate::interaction::{offset_from, SurfacePoint};
+use crate::interaction::{offset_from, reflect, SurfacePoint};
 use crate::mesh::{point_in_polygon, Piece, RadiosityMesh};
 use crate::sampling::{cosine_direction, shot_seed, uniform3, Alias};
 use crate::scene::{mean, Rgb, Scene};
@@ -222,7 +222,7 @@ impl<'a> Tracer<'a> {
                 power *= spec / ps;
                 origin = sp.p;
                 normal = sp.ng;
-                dir = dir - 2.0 * dir.dot(sp.ns) * sp.ns;
+                dir = reflect(dir, sp.ns);
                 source = None;
                 continue;
             }
@@ -260,7 +260,7 @@ impl<'a> Tracer<'a> {
                 caustic = false;
             } else if u < pd + ps && ps > 0.0 {
                 power *= spec / ps;
-                dir = dir - 2.0 * dir.dot(sp.ns) * sp.ns;
+                dir = reflect(dir, sp.ns);
                 source = None;
             } else {
                 return;

@@ -36,7 +36,7 @@ use rayon::prelude::*;
 use super::counters::Counters;
 use crate::accel::Accel;
 use crate::camera::Camera;
-use crate::interaction::SurfacePoint;
+use crate::interaction::{reflect, SurfacePoint};
 use crate::radiosity::Solution;
 use crate::radiosity::SourceId;
 use crate::sampling::{derive, pixel_seed, uniform2, Stream};
@@ -324,7 +324,7 @@ impl Gather {
                     }
                 }
                 let m = bsdf.kind.mirror((-ray.dir).dot(y.ns));
-                let dir = (ray.dir - 2.0 * ray.dir.dot(y.ns) * y.ns).normalize();
+                let dir = reflect(ray.dir, y.ns).normalize();
                 if m.max_element() <= 0.0 || dir.dot(y.ng) <= 0.0 {
                     break;
                 }

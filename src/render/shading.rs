@@ -8,7 +8,7 @@ use super::sib::{self, SibQuery};
 use super::Settings;
 use crate::accel::{Accel, Ray};
 use crate::emitters::{group_point, SampledLight};
-use crate::interaction::SurfacePoint;
+use crate::interaction::{reflect, SurfacePoint};
 use crate::mesh::RadiosityMesh;
 use crate::sampling::{derive, Stream};
 use crate::scene::{Bsdf, Rgb, Scene};
@@ -213,7 +213,7 @@ impl<'a> Tracer<'a> {
         if depth < self.max_depth {
             let m = bsdf.kind.mirror(cos_v);
             if m.max_element() > 0.0 {
-                let dir = (ray.dir - 2.0 * ray.dir.dot(sp.ns) * sp.ns).normalize();
+                let dir = reflect(ray.dir, sp.ns).normalize();
                 if dir.dot(sp.ng) > 0.0 {
                     counters.reflection_rays += 1;
                     let refl = sp.spawn(dir, f32::INFINITY);
