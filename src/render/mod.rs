@@ -176,7 +176,11 @@ pub fn render(
                 reconstruct_s: start.elapsed().as_secs_f64(),
             }
         }
-        Sampler::Uniform => render_uniform(&tracer, &camera, settings, progress),
+        Sampler::Uniform => {
+            let mut out = render_uniform(&tracer, &camera, settings, progress);
+            out.trace_s = start.elapsed().as_secs_f64();
+            out
+        }
     };
     first += std::mem::take(&mut out.counters);
     out.counters = first;
@@ -187,7 +191,6 @@ pub fn render(
 fn render_uniform(tracer: &Tracer, camera: &Camera, settings: &Settings, progress: &dyn Progress) -> Output {
     let (w, h) = (settings.width, settings.height);
     progress.start("render", h as u64);
-    let start = Instant::now();
     // Each row's samples go straight into the film (memory follows the pixels,
     // whatever the samples per pixel).
     let share = 1.0 / settings.spp.max(1) as f32;
@@ -212,7 +215,6 @@ fn render_uniform(tracer: &Tracer, camera: &Camera, settings: &Settings, progres
         counters
     });
     progress.finish();
-    let trace_s = start.elapsed().as_secs_f64();
     let mut counters = Counters::with_sources(tracer.source_count());
     for c in rows {
         counters += c;
@@ -223,7 +225,8 @@ fn render_uniform(tracer: &Tracer, camera: &Camera, settings: &Settings, progres
         counters,
         levels: Vec::new(),
         samples: None,
-        trace_s,
+        // (Timed by `render`, with the gather's records.)
+        trace_s: 0.0,
         // (The film is made as the samples come: no separate reconstruction.)
         reconstruct_s: 0.0,
     }
