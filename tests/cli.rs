@@ -787,3 +787,86 @@ fn a_closed_pipe_ends_info_quietly() {
     assert!(!err.contains("panicked"), "{err}");
     assert_eq!(out.status.code(), Some(141), "{err}");
 }
+
+/// `--quality` sets the effort of both passes at once, as the help's table says, and a
+/// flag given on its own wins over the level.
+#[test]
+fn the_quality_dial_sets_both_passes_and_a_flag_wins() {
+    let d = tmp();
+    let scene = write_scene(d.path(), ROOMLET);
+    let run = |extra: &[&str]| -> serde_json::Value {
+        let (out, stats) = (d.path().join("q.exr"), d.path().join("q.json"));
+        let mut args = vec![
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--mesh-size",
+            "0.5",
+            "--width",
+            "24",
+            "--height",
+            "24",
+            "--stats",
+            stats.to_str().unwrap(),
+            "-q",
+        ];
+        args.extend(extra);
+        let o = radtrace(&args);
+        assert!(o.status.success(), "{extra:?}: {}", stderr(&o));
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap()
+    };
+    // (shoot samples, photons per vertex, max level, gather rays) of each level.
+    for (level, want) in [
+        ("draft", (32, 16, 1, 0)),
+        ("good", (64, 64, 2, 0)),
+        ("final", (128, 256, 3, 128)),
+    ] {
+        let j = run(&["--quality", level]);
+        let got = (
+            j["solve"]["shoot_samples"].as_u64().unwrap(),
+            j["solve"]["photons_per_vertex"].as_u64().unwrap(),
+            j["max_level"].as_u64().unwrap(),
+            j["gather"].as_u64().unwrap(),
+        );
+        assert_eq!(got, want, "--quality {level}");
+        assert_eq!(
+            j["gather_rays"].as_u64().unwrap() > 0,
+            want.3 > 0,
+            "--quality {level}"
+        );
+    }
+    // No flag: good.
+    let j = run(&[]);
+    assert_eq!(j["max_level"], 2);
+    assert_eq!(j["gather"], 0);
+    // Flags given on their own win.
+    let j = run(&[
+        "--quality",
+        "final",
+        "--gather",
+        "0",
+        "--max-level",
+        "1",
+        "--photons",
+        "8",
+    ]);
+    assert_eq!(
+        (
+            &j["gather"],
+            &j["max_level"],
+            &j["solve"]["photons_per_vertex"],
+            &j["solve"]["shoot_samples"]
+        ),
+        (
+            &serde_json::json!(0),
+            &serde_json::json!(1),
+            &serde_json::json!(8),
+            &serde_json::json!(128)
+        )
+    );
+    expect_error(
+        &["render", &s(&scene), "-o", "x.png", "--quality", "best"],
+        "--quality",
+    );
+}

@@ -12,9 +12,10 @@
    same triangle) before any figure is printed.
 2. Time to equal quality against Mitsuba 3 (path tracer) on the same scene file: one
    high-sample Mitsuba reference (--reference-spp, cached), Mitsuba at --mitsuba-spp
-   (its render time and mean FLIP against the reference), and radtrace's default render
-   (the whole process, solve included) with its FLIP against the same reference; if
-   radtrace's FLIP is worse it is re-run with more effort until it is not. The figure is
+   (its render time and mean FLIP against the reference), and radtrace's render at the
+   quality dial's lowest level, `--quality draft` (the whole process, solve included),
+   with its FLIP against the same reference; if radtrace's FLIP is worse it is re-run at
+   the next level (`good`, then `final`) until it is not. The figure is
    Mitsuba's time / radtrace's time (issue 6: at least 5 on the Cornell box). Default
    scenes: the Cornell box and the conference room; a scene may get a ladder of its own
    (RADTRACE_EFFORT, empty now), and Mitsuba the -D
@@ -348,8 +349,8 @@ def mitsuba_defines(exe: str, scene: Path, work: Path) -> dict:
 
 
 # radtrace settings tried in turn until its FLIP is no worse than Mitsuba's: the
-# default first, then more effort on the radiosity (pass 1) and the image (pass 2).
-EFFORT = [[], ["--shoot-samples", "128"], ["--shoot-samples", "128", "--max-level", "3"]]
+# levels of the quality dial, least effort first.
+EFFORT = [["--quality", q] for q in ("draft", "good", "final")]
 # Scenes (by file stem) with a ladder of their own. None now: since pass 1 merges
 # polygons into lattice patches and carries the tail by photons, the conference room
 # (331,185 triangles) renders with the defaults in about 25 s on 2 cores.

@@ -51,9 +51,65 @@ pub struct SceneArgs {
     pub defines: Vec<(String, String)>,
 }
 
+/// The quality dial: one flag that sets the effort of both passes. Each flag it sets
+/// can still be given on its own, and then wins.
+///
+/// | level | `--shoot-samples` | `--photons` | `--max-level` | `--gather` |
+/// |---|---|---|---|---|
+/// | draft | 32 | 16 | 1 | 0 |
+/// | good | 64 | 64 | 2 | 0 |
+/// | final | 128 | 256 | 3 | 128 |
+///
+/// Chosen by measurement (README, "The quality dial"): `good` reaches Mitsuba 3's
+/// 64-spp FLIP in under 1/5 of its time on the Cornell box and the paper room,
+/// `final` reaches its 256-spp FLIP there, `draft` is the quickest picture.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum Quality {
+    /// The quickest picture: coarser shots, few photons, up to 4 samples per pixel.
+    Draft,
+    /// The default.
+    #[default]
+    Good,
+    /// The paper's last step on: a final gather of 128 rays, finer shots, 4x the
+    /// photons, up to 64 samples per pixel.
+    Final,
+}
+
+impl Quality {
+    /// Most cells of a shooting source (`--shoot-samples`).
+    pub fn shoot_samples(self) -> u32 {
+        [32, 64, 128][self as usize]
+    }
+
+    /// Photons per mesh vertex (`--photons`).
+    pub fn photons(self) -> u32 {
+        [16, 64, 256][self as usize]
+    }
+
+    /// Highest level of the adaptive sampler (`--max-level`).
+    pub fn max_level(self) -> u32 {
+        [1, 2, 3][self as usize]
+    }
+
+    /// Final-gather rays (`--gather`).
+    pub fn gather(self) -> u32 {
+        [0, 0, 128][self as usize]
+    }
+
+    /// The level's name, as on the command line.
+    pub fn name(self) -> &'static str {
+        ["draft", "good", "final"][self as usize]
+    }
+}
+
 /// Settings of the radiosity pass (pass 1).
 #[derive(Debug, Args)]
 pub struct SolveArgs {
+    /// Quality dial: `draft`, `good` or `final` set --shoot-samples (32/64/128),
+    /// --photons (16/64/256), --max-level (1/2/3) and --gather (0/0/128) at once; any
+    /// of those flags given on its own wins.
+    #[arg(long, value_enum, default_value_t = Quality::Good)]
+    pub(super) quality: Quality,
     /// Largest radiosity element edge, in scene units [default: the scene's
     /// bounding-box diagonal / 40].
     #[arg(long, value_name = "SIZE", allow_negative_numbers = true)]
@@ -63,9 +119,10 @@ pub struct SolveArgs {
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=64))]
     pub(super) sources_per_patch: Option<u32>,
     /// Most cells per area light or shooting patch in a shot (for a vertex that sees
-    /// it under the whole hemisphere; fewer as it looks smaller).
-    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=4096))]
-    pub(super) shoot_samples: u32,
+    /// it under the whole hemisphere; fewer as it looks smaller) [default: by
+    /// --quality, 64 for good].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub(super) shoot_samples: Option<u32>,
     /// Deterministic shots stop when the unshot power falls below this fraction of
     /// the emitted power, or (with photons) when no patch holds this fraction.
     #[arg(long, default_value_t = 0.01, value_name = "FRACTION")]
@@ -74,9 +131,9 @@ pub struct SolveArgs {
     #[arg(long, default_value_t = 20000)]
     pub(super) max_shots: u32,
     /// Photons per mesh vertex that carry the light the deterministic shots leave
-    /// unshot (0: none; the rest stays unshot).
-    #[arg(long, default_value_t = 64, value_name = "N")]
-    pub(super) photons: u32,
+    /// unshot (0: none; the rest stays unshot) [default: by --quality, 64 for good].
+    #[arg(long, value_name = "N")]
+    pub(super) photons: Option<u32>,
     /// Photons in all at most, whatever --photons asks for a large mesh (0: no cap).
     #[arg(long, default_value_t = 3_000_000, value_name = "N")]
     pub(super) max_photons: u64,
@@ -96,11 +153,11 @@ impl SolveArgs {
             sources_per_patch: self
                 .sources_per_patch
                 .unwrap_or((scene.lights.len() as u32).clamp(4, 64)),
-            shoot_samples: self.shoot_samples,
+            shoot_samples: self.shoot_samples.unwrap_or(self.quality.shoot_samples()),
             tolerance: self.solve_tolerance,
             max_shots: self.max_shots,
             seed,
-            photons: self.photons,
+            photons: self.photons.unwrap_or(self.quality.photons()),
             max_photons: self.max_photons,
             time_limit: self.solve_time.unwrap_or(0.0),
         };
@@ -220,9 +277,10 @@ pub enum OnOff {
 #[derive(Debug, Args)]
 pub struct RefineArgs {
     /// Highest refinement level of the adaptive sampler: at most 4^N samples per
-    /// pixel (level -1: one per 2x2 pixels; level 0: one per pixel).
-    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(0..=4))]
-    pub(super) max_level: u32,
+    /// pixel (level -1: one per 2x2 pixels; level 0: one per pixel) [default: by
+    /// --quality, 2 for good].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=4))]
+    pub(super) max_level: Option<u32>,
     /// Difference criterion: refine where neighbouring samples' display values
     /// (sRGB, 0..1, after --exposure) differ by more than this in a channel.
     #[arg(long, default_value_t = 0.05, value_name = "DIFFERENCE")]
@@ -230,9 +288,9 @@ pub struct RefineArgs {
 }
 
 impl RefineArgs {
-    pub(super) fn refine(&self, sib: bool, exposure: f32) -> Result<Refine> {
+    pub(super) fn refine(&self, sib: bool, exposure: f32, quality: Quality) -> Result<Refine> {
         let refine = Refine {
-            max_level: self.max_level,
+            max_level: self.max_level.unwrap_or(quality.max_level()),
             contrast: self.contrast,
             exposure,
             sib,
@@ -358,9 +416,9 @@ pub struct ImageArgs {
     /// the light not ray traced from the patch's sources is gathered with this many
     /// cosine-distributed rays that read the radiosity solution, at a grid of the
     /// screen every 4 pixels and anew where those records do not reach (0: interpolate
-    /// the solution at the hit).
-    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=4096))]
-    pub(super) gather: u32,
+    /// the solution at the hit) [default: by --quality, 0 for good, 128 for final].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=4096))]
+    pub(super) gather: Option<u32>,
     /// Pixel reconstruction filter.
     #[arg(long, value_enum, default_value_t = Filter::Gaussian)]
     pub(super) filter: Filter,
@@ -492,6 +550,11 @@ pub(super) fn parse_define(s: &str) -> std::result::Result<(String, String), Str
 }
 
 impl ImageArgs {
+    /// Final-gather rays: the flag's, else the quality level's.
+    pub(super) fn gather(&self, quality: Quality) -> u32 {
+        self.gather.unwrap_or(quality.gather())
+    }
+
     /// The render settings for `view` of `scene` with `method` (the uniform sampler's
     /// `spp` and the adaptive sampler's `refine` as given).
     pub(super) fn settings(
@@ -502,6 +565,7 @@ impl ImageArgs {
         sampler: Sampler,
         spp: Option<u32>,
         refine: Refine,
+        quality: Quality,
     ) -> Result<Settings> {
         let sensor = scene.sensor(view)?;
         Ok(Settings {
@@ -513,7 +577,7 @@ impl ImageArgs {
             seed: self.seed,
             area_samples: self.area_samples,
             max_depth: self.max_depth,
-            gather: self.gather,
+            gather: self.gather(quality),
             filter: self.filter,
             sampler,
             refine,

@@ -65,7 +65,8 @@ pub(super) fn cmd_render(a: RenderArgs) -> Result<()> {
         Some(v) => v == OnOff::On,
         None => matches!(a.method, Method::Local | Method::Global),
     };
-    let refine = a.refine.refine(sib, a.exposure)?;
+    let quality = a.solve.quality;
+    let refine = a.refine.refine(sib, a.exposure, quality)?;
     let select_settings = a.select.settings(a.image.area_samples)?;
     let baseline = a.baseline.as_deref().map(read_baseline).transpose()?;
     with_threads(a.image.threads, |threads| {
@@ -74,7 +75,7 @@ pub(super) fn cmd_render(a: RenderArgs) -> Result<()> {
         let l = load_all(&a.scene, a.solution.as_deref(), solve, a.quiet, &mut t)?;
         let settings = a
             .image
-            .settings(&l.scene, a.view, a.method, sampler, a.spp, refine)?;
+            .settings(&l.scene, a.view, a.method, sampler, a.spp, refine, quality)?;
         let (out, selection) = render_view(&l, &settings, &select_settings, a.quiet, &mut t)?;
         if let (Some(path), Some(sel)) = (&a.selection_map, &selection) {
             let camera = crate::camera::Camera::new(l.scene.sensor(a.view)?, settings.width, settings.height);

@@ -46,7 +46,7 @@ impl Observer for Cli {
 pub(super) fn cmd_tables(a: TablesArgs) -> Result<()> {
     let total = Instant::now();
     let select = a.select.settings(a.image.area_samples)?;
-    a.refine.refine(false, 0.0)?;
+    let refine = a.refine.refine(false, 0.0, a.solve.quality)?;
     with_threads(a.image.threads, |_| {
         let mut t = Timings::default();
         let l = load_all(
@@ -64,9 +64,9 @@ pub(super) fn cmd_tables(a: TablesArgs) -> Result<()> {
             seed: a.image.seed,
             area_samples: a.image.area_samples,
             max_depth: a.image.max_depth,
-            gather: a.image.gather,
+            gather: a.image.gather(a.solve.quality),
             filter: a.image.filter,
-            max_level: a.refine.max_level,
+            max_level: refine.max_level,
             contrast: a.refine.contrast,
             select,
             keep_images: false,
