@@ -554,31 +554,25 @@ impl ImageArgs {
     pub(super) fn gather(&self, quality: Quality) -> u32 {
         self.gather.unwrap_or(quality.gather())
     }
+}
 
-    /// The render settings for `view` of `scene` with `method` (the uniform sampler's
-    /// `spp` and the adaptive sampler's `refine` as given).
-    pub(super) fn settings(
-        &self,
-        scene: &Scene,
-        view: usize,
-        method: Method,
-        sampler: Sampler,
-        spp: Option<u32>,
-        refine: Refine,
-        quality: Quality,
-    ) -> Result<Settings> {
-        let sensor = scene.sensor(view)?;
+impl RenderArgs {
+    /// The render settings for the view of `scene` (the uniform sampler's `--spp` and
+    /// the adaptive sampler's `refine` as given).
+    pub(super) fn settings(&self, scene: &Scene, sampler: Sampler, refine: Refine) -> Result<Settings> {
+        let sensor = scene.sensor(self.view)?;
+        let image = &self.image;
         Ok(Settings {
-            method,
-            view,
-            width: self.width.unwrap_or(sensor.width),
-            height: self.height.unwrap_or(sensor.height),
-            spp: spp.or(sensor.spp).unwrap_or(16).clamp(1, 65536),
-            seed: self.seed,
-            area_samples: self.area_samples,
-            max_depth: self.max_depth,
-            gather: self.gather(quality),
-            filter: self.filter,
+            method: self.method,
+            view: self.view,
+            width: image.width.unwrap_or(sensor.width),
+            height: image.height.unwrap_or(sensor.height),
+            spp: self.spp.or(sensor.spp).unwrap_or(16).clamp(1, 65536),
+            seed: image.seed,
+            area_samples: image.area_samples,
+            max_depth: image.max_depth,
+            gather: image.gather(self.solve.quality),
+            filter: image.filter,
             sampler,
             refine,
         })

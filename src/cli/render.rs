@@ -65,17 +65,14 @@ pub(super) fn cmd_render(a: RenderArgs) -> Result<()> {
         Some(v) => v == OnOff::On,
         None => matches!(a.method, Method::Local | Method::Global),
     };
-    let quality = a.solve.quality;
-    let refine = a.refine.refine(sib, a.exposure, quality)?;
+    let refine = a.refine.refine(sib, a.exposure, a.solve.quality)?;
     let select_settings = a.select.settings(a.image.area_samples)?;
     let baseline = a.baseline.as_deref().map(read_baseline).transpose()?;
     with_threads(a.image.threads, |threads| {
         let mut t = Timings::default();
         let solve = (a.method != Method::Direct).then_some((&a.solve, a.image.seed));
         let l = load_all(&a.scene, a.solution.as_deref(), solve, a.quiet, &mut t)?;
-        let settings = a
-            .image
-            .settings(&l.scene, a.view, a.method, sampler, a.spp, refine, quality)?;
+        let settings = a.settings(&l.scene, sampler, refine)?;
         let (out, selection) = render_view(&l, &settings, &select_settings, a.quiet, &mut t)?;
         if let (Some(path), Some(sel)) = (&a.selection_map, &selection) {
             let camera = crate::camera::Camera::new(l.scene.sensor(a.view)?, settings.width, settings.height);
