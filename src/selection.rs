@@ -256,7 +256,7 @@ pub struct Selection<'a> {
     pub criteria: Vec<Vec<(SourceId, Criteria)>>,
 }
 
-impl Selection<'_> {
+impl<'a> Selection<'a> {
     /// The sources ray traced on patch `p`.
     pub fn picks(&self, p: u32) -> &[Pick] {
         let (a, b) = (self.offsets[p as usize], self.offsets[p as usize + 1]);
@@ -279,6 +279,65 @@ impl Selection<'_> {
     /// Number of (patch, source) pairs ray traced.
     pub fn pick_count(&self) -> usize {
         self.picks.len()
+    }
+
+    /// The ray-traced sources (indices into `sources`) that some patch picks, the
+    /// strongest first (by [`source_power`]; ties by index).
+    pub fn ranked(&self, scene: &Scene) -> Vec<u32> {
+        let total = self.solution.total();
+        let mut used: Vec<u32> = self.picks.iter().map(|k| k.source).collect();
+        used.sort_unstable();
+        used.dedup();
+        let mut ranked: Vec<(f64, u32)> = used
+            .into_iter()
+            .map(|i| {
+                (
+                    source_power(scene, self.solution, &total, self.sources[i as usize]),
+                    i,
+                )
+            })
+            .collect();
+        ranked.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        ranked.into_iter().map(|(_, i)| i).collect()
+    }
+
+    /// The same selection with only the sources in `keep` (indices into `sources`)
+    /// ray traced: every other pick's light comes from the solution instead (its
+    /// stored, occluded contribution, as for a listed source the criteria turned
+    /// down), so each source still reaches a point by one route. The paper's
+    /// progressive display (Sect. 3) shows these in turn, strongest sources first.
+    pub fn only(&self, keep: &[u32]) -> Selection<'a> {
+        let mesh = &self.solution.mesh;
+        let mut stored = self.stored.clone();
+        let mut offsets = Vec::with_capacity(self.offsets.len());
+        let mut picks = Vec::new();
+        for p in 0..mesh.patches.len() {
+            offsets.push(picks.len() as u32);
+            let first = mesh.patches[p].first_vertex as usize;
+            for k in self.picks(p as u32) {
+                if keep.contains(&k.source) {
+                    picks.push(*k);
+                    continue;
+                }
+                let source = self.sources[k.source as usize];
+                if let Some(e) = self.solution.lists[p].iter().find(|e| e.source == source) {
+                    for (i, c) in e.occluded.iter().enumerate() {
+                        stored[first + i] += *c;
+                    }
+                }
+            }
+        }
+        offsets.push(picks.len() as u32);
+        Selection {
+            solution: self.solution,
+            method: self.method,
+            sources: self.sources.clone(),
+            emitters: self.emitters.clone(),
+            stored,
+            offsets,
+            picks,
+            criteria: self.criteria.clone(),
+        }
     }
 }
 
@@ -313,6 +372,21 @@ fn source_triangles(scene: &Scene, sol: &Solution, s: SourceId) -> Vec<[Vec3; 3]
             .iter()
             .map(|t| t.map(|v| sol.mesh.vertices[v as usize].p))
             .collect(),
+    }
+}
+
+/// The power a source sends: a light's emitted power, a radiant patch's reflected
+/// power (its total radiosity over its area). `total` is [`Solution::total`].
+fn source_power(scene: &Scene, sol: &Solution, total: &[Rgb], s: SourceId) -> f64 {
+    match s {
+        SourceId::Light(l) => light_power(scene, &scene.lights[l as usize]),
+        SourceId::Patch(p) => {
+            let mp = &sol.mesh.patches[p as usize];
+            let first = mp.first_vertex as usize;
+            (first..first + mp.vertex_count as usize)
+                .map(|v| mean(total[v]) as f64 * sol.mesh.vertices[v].area as f64)
+                .sum()
+        }
     }
 }
 
@@ -482,21 +556,12 @@ pub(crate) fn select_unchecked<'a>(
         }
         Method::Global => {
             // Rank lights by emitted power and radiant patches by reflected power.
-            let mut ranked: Vec<(f64, SourceId)> = scene
-                .lights
-                .iter()
-                .enumerate()
-                .map(|(l, light)| (light_power(scene, light), SourceId::Light(l as u32)))
+            let mut ranked: Vec<(f64, SourceId)> = (0..nl as u32)
+                .map(SourceId::Light)
+                .chain((0..np as u32).map(SourceId::Patch))
+                .map(|s| (source_power(scene, sol, &total, s), s))
+                .filter(|&(w, s)| w > 0.0 || matches!(s, SourceId::Light(_)))
                 .collect();
-            for (p, mp) in mesh.patches.iter().enumerate() {
-                let first = mp.first_vertex as usize;
-                let power: f64 = (first..first + mp.vertex_count as usize)
-                    .map(|v| mean(total[v]) as f64 * mesh.vertices[v].area as f64)
-                    .sum();
-                if power > 0.0 {
-                    ranked.push((power, SourceId::Patch(p as u32)));
-                }
-            }
             ranked.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
             ranked.truncate(settings.global_sources as usize);
             let lights: Vec<(SourceId, u32)> = ranked

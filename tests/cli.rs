@@ -870,3 +870,70 @@ fn the_quality_dial_sets_both_passes_and_a_flag_wins() {
         "--quality",
     );
 }
+
+/// `--progressive` writes the image after each step (the solution alone, the strongest
+/// source ray traced, both, then the gather) and ends with the very image of the
+/// render without it.
+#[test]
+fn progressive_steps_end_with_the_image_of_the_plain_render() {
+    let d = tmp();
+    let two_lights = ROOMLET.replace(
+        "<sensor",
+        r#"<emitter type="spot">
+    <transform name="to_world"><lookat origin="0.8, 0.5, 1.8" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <rgb name="intensity" value="4"/>
+  </emitter>
+  <sensor"#,
+    );
+    let scene = write_scene(d.path(), &two_lights);
+    let render = |out: &Path, extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--method",
+            "norm",
+            "--mesh-size",
+            "0.5",
+            "--gather",
+            "8",
+            "--width",
+            "24",
+            "--height",
+            "24",
+        ];
+        args.extend(extra);
+        let o = radtrace(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        stderr(&o)
+    };
+    let (plain, prog) = (d.path().join("plain.exr"), d.path().join("prog.exr"));
+    let quiet = render(&plain, &["-q"]);
+    assert!(!quiet.contains("step"));
+    let err = render(&prog, &["--progressive"]);
+    let steps: Vec<&str> = err.lines().filter(|l| l.starts_with("radtrace: step ")).collect();
+    assert_eq!(steps.len(), 3, "{err}");
+    assert!(steps[0].contains("the radiosity solution alone"), "{err}");
+    assert!(
+        steps[1].contains("the 1 strongest of 2 selected sources"),
+        "{err}"
+    );
+    assert!(steps[2].contains("all 2 selected sources"), "{err}");
+    assert_eq!(
+        radtrace::io::read_image(&plain).unwrap(),
+        radtrace::io::read_image(&prog).unwrap()
+    );
+    expect_error(
+        &[
+            "render",
+            &s(&scene),
+            "-o",
+            "x.png",
+            "--method",
+            "direct",
+            "--progressive",
+        ],
+        "--progressive",
+    );
+}

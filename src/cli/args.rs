@@ -363,6 +363,12 @@ pub struct RenderArgs {
     /// Exposure in stops applied to PNG output (EXR is always written unscaled).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub(super) exposure: f32,
+    /// Progressive display (paper Sect. 3): write the image after each step, the
+    /// radiosity solution alone first, then the selected sources ray traced, strongest
+    /// first (1, 2, 4 ...), then the final render (with its gather); the last image is
+    /// the render without this flag. Ctrl-C leaves the last finished step's image.
+    #[arg(long)]
+    pub(super) progressive: bool,
     /// Write statistics (rays, hits, timings) as JSON to this file.
     #[arg(long, value_name = "FILE")]
     pub(super) stats: Option<PathBuf>,

@@ -191,6 +191,7 @@ fn render_view<'a>(
     l: &'a Loaded,
     settings: &Settings,
     select: &SelectSettings,
+    steps: Option<crate::experiments::StepSink>,
     quiet: bool,
     t: &mut Timings,
 ) -> Result<(crate::render::Output, Option<Selection<'a>>)> {
@@ -206,6 +207,7 @@ fn render_view<'a>(
         settings,
         select,
         &mut selected,
+        steps,
         &Bars::new(quiet),
         t,
     )

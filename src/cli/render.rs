@@ -41,6 +41,11 @@ pub(super) fn cmd_render(a: RenderArgs) -> Result<()> {
             ));
         }
     }
+    if a.progressive && a.method == Method::Direct {
+        return Err(Error::Usage(
+            "--progressive shows the radiosity solution first and then ray traces the sources into it; --method direct has no solution: use another method or drop --progressive".into(),
+        ));
+    }
     let sampler = a.sampler.unwrap_or(if a.spp.is_some() {
         Sampler::Uniform
     } else {
@@ -73,7 +78,24 @@ pub(super) fn cmd_render(a: RenderArgs) -> Result<()> {
         let solve = (a.method != Method::Direct).then_some((&a.solve, a.image.seed));
         let l = load_all(&a.scene, a.solution.as_deref(), solve, a.quiet, &mut t)?;
         let settings = a.settings(&l.scene, sampler, refine)?;
-        let (out, selection) = render_view(&l, &settings, &select_settings, a.quiet, &mut t)?;
+        // The progressive display's steps: each image replaces the last (atomically).
+        let mut step = 0;
+        let mut write_step = |label: &str, out: &render::Output| -> Result<()> {
+            step += 1;
+            crate::io::write_image(&out.image, &a.output, a.exposure)?;
+            if !a.quiet {
+                eprintln!(
+                    "radtrace: step {step}, {label}: {:.2} s -> {}",
+                    total.elapsed().as_secs_f64(),
+                    a.output.display()
+                );
+            }
+            Ok(())
+        };
+        let steps = a
+            .progressive
+            .then_some(&mut write_step as crate::experiments::StepSink);
+        let (out, selection) = render_view(&l, &settings, &select_settings, steps, a.quiet, &mut t)?;
         if let (Some(path), Some(sel)) = (&a.selection_map, &selection) {
             let camera = crate::camera::Camera::new(l.scene.sensor(a.view)?, settings.width, settings.height);
             let img = t.time("selection_map", || {

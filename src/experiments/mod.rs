@@ -14,9 +14,21 @@ use crate::selection::{self, SelectSettings, Selection, ViewScale};
 use crate::stats::Timings;
 use crate::Result;
 
+/// A step of the progressive display: what it shows and its image.
+pub type StepSink<'s> = &'s mut dyn FnMut(&str, &Output) -> Result<()>;
+
 /// One view rendered from a solution: selects the sources for `settings.method` (with
 /// the view's camera; none for `direct` or without a solution), hands the selection
 /// to `selected`, and renders. Records `select`, `render` and `reconstruct` in `t`.
+///
+/// With `steps`, the paper's progressive display (Sect. 3) comes first: "initially,
+/// the general radiosity term is displayed and, starting with the most important light
+/// sources, their contribution is calculated more accurately with shadow ray tracing".
+/// Each step is a render of the same settings without the final gather: the solution
+/// alone, then the 1, 2, 4 ... strongest of the selected sources ray traced (the others
+/// from the solution, [`Selection::only`]), then, with a gather, all of them; each goes
+/// to `steps` as it is done. The render returned is the one without `steps`, so the
+/// last image is the same.
 #[allow(clippy::too_many_arguments)]
 pub fn select_and_render<'a>(
     scene: &Scene,
@@ -25,6 +37,7 @@ pub fn select_and_render<'a>(
     settings: &Settings,
     select: &SelectSettings,
     selected: &mut dyn FnMut(&Selection),
+    steps: Option<StepSink>,
     progress: &dyn Progress,
     t: &mut Timings,
 ) -> Result<(Output, Option<Selection<'a>>)> {
@@ -41,6 +54,39 @@ pub fn select_and_render<'a>(
     };
     if let Some(sel) = &selection {
         selected(sel);
+    }
+    if let (Some(sink), Some(full)) = (steps, &selection) {
+        let step = Settings {
+            gather: 0,
+            ..settings.clone()
+        };
+        let ranked = full.ranked(scene);
+        let n = ranked.len();
+        // Sources ray traced at each step: none, 1, 2, 4 ... below all; all too when
+        // the final render adds a gather (without one it is the final render).
+        let mut counts = vec![0];
+        let mut k = 1;
+        while k < n {
+            counts.push(k);
+            k *= 2;
+        }
+        if settings.gather > 0 && n > 0 {
+            counts.push(n);
+        }
+        if n == 0 && settings.gather == 0 {
+            counts.clear();
+        }
+        for k in counts {
+            let out = render::render(scene, bvh, &step, Some(&full.only(&ranked[..k])), progress)?;
+            t.add("render", out.trace_s);
+            t.add("reconstruct", out.reconstruct_s);
+            let label = match k {
+                0 => "the radiosity solution alone".to_string(),
+                k if k == n => format!("all {n} selected sources ray traced"),
+                k => format!("the {k} strongest of {n} selected sources ray traced"),
+            };
+            sink(&label, &out)?;
+        }
     }
     let out = render::render(scene, bvh, settings, selection.as_ref(), progress)?;
     t.add("render", out.trace_s);

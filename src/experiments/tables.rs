@@ -295,6 +295,7 @@ pub fn run(
                 &settings,
                 &plan.select,
                 &mut |sel| observer.selected(run, sel),
+                None,
                 progress,
                 &mut t,
             )?;
