@@ -20,6 +20,12 @@
 //!   ([`crate::radiosity::Solution::caustic`]), which the hit keeps, since no ray
 //!   finds a point or spot light.
 //!
+//! Where the solution cannot be trusted, near other surfaces, a gather ray that lands
+//! nearer than the mesh size reads its hit's radiosity without the direct light of the
+//! lights listed there and adds that light by one shadow ray each
+//! ([`Gather::relight`]): the mesh cannot follow a shadow at that scale (the table
+//! under a teapot's body, the floor at a box's foot).
+//!
 //! Coherence, as the shadow image buffer has it on the screen: the gather is made at
 //! a coarse grid of the screen first (every [`SPACING`] pixels), and each result is a
 //! record valid within the harmonic mean distance of what its rays met (Ward's
@@ -36,6 +42,7 @@ use rayon::prelude::*;
 use super::counters::Counters;
 use crate::accel::Accel;
 use crate::camera::Camera;
+use crate::emitters::SampledLight;
 use crate::interaction::{reflect, SurfacePoint};
 use crate::radiosity::Solution;
 use crate::radiosity::SourceId;
@@ -85,6 +92,14 @@ struct Record {
 pub struct Gather {
     rays: u32,
     total: Vec<Rgb>,
+    /// Per vertex, the total radiosity without the direct light of the lights listed
+    /// on its patch: what a gather ray that lands nearer than [`Gather::near`] reads,
+    /// before it adds that light by shadow rays from where it landed.
+    unlit: Vec<Rgb>,
+    /// The scene's lights, prepared for sampling.
+    lights: Vec<SampledLight>,
+    /// Gather rays that land nearer than this (the mesh size) relight their hit.
+    near: f32,
     /// Per vertex, the part of the selection's stored radiosity that the gather keeps:
     /// the stored contributions of listed sources not ray traced, and the caustic
     /// part of the general radiosity.
@@ -133,9 +148,27 @@ impl Gather {
         } else {
             Vec::new()
         };
+        let total = sol.total();
+        let mut unlit = total.clone();
+        for (p, list) in sol.lists.iter().enumerate() {
+            let first = sol.mesh.patches[p].first_vertex as usize;
+            for e in list.iter().filter(|e| matches!(e.source, SourceId::Light(_))) {
+                for (k, c) in e.occluded.iter().enumerate() {
+                    unlit[first + k] -= *c;
+                }
+            }
+        }
         Gather {
             rays,
-            total: sol.total(),
+            total,
+            unlit,
+            lights: ctx
+                .scene
+                .lights
+                .iter()
+                .map(|l| SampledLight::prepare(ctx.scene, l))
+                .collect(),
+            near: sol.settings.mesh_size,
             kept,
             folded,
             records: Vec::new(),
@@ -315,12 +348,16 @@ impl Gather {
                 if bsdf.kind.has_diffuse() {
                     let q = ctx.solution.mesh.patch_at(ctx.scene, &hit, y.front);
                     if bounce > 0 || !listed(SourceId::Patch(q)) {
+                        let w = ctx.solution.mesh.locate_on(ctx.scene, q, &hit, y.p);
                         e += through
-                            * ctx
-                                .solution
-                                .mesh
-                                .locate_on(ctx.scene, q, &hit, y.p)
-                                .apply(&self.total);
+                            * if bounce == 0 && hit.t < self.near {
+                                let rho = bsdf.kind.diffuse_albedo();
+                                w.apply(&self.unlit)
+                                    + rho
+                                        * self.relight(ctx, &y, q, derive(seed, Stream::Sample(k)), counters)
+                            } else {
+                                w.apply(&self.total)
+                            };
                     }
                 }
                 let m = bsdf.kind.mirror((-ray.dir).dot(y.ns));
@@ -342,6 +379,36 @@ impl Gather {
     }
 }
 
+impl Gather {
+    /// The irradiance at `y` on patch `q` from the lights listed there, one shadow ray
+    /// each (seeded by `seed`). A gather ray that lands nearer than the mesh size
+    /// reads this instead of their interpolated light: there the mesh cannot follow
+    /// the shadows (the table under a teapot, the floor at a box's foot), and the
+    /// vertices' light would brighten what lies in the shadow of the very surface
+    /// that gathers.
+    fn relight(&self, ctx: &Context, y: &SurfacePoint, q: u32, seed: u32, counters: &mut Counters) -> Rgb {
+        let mut e = Vec3::ZERO;
+        for entry in &ctx.solution.lists[q as usize] {
+            let SourceId::Light(l) = entry.source else {
+                continue;
+            };
+            let Some(s) = self.lights[l as usize].sample(y.p, uniform2(derive(seed, Stream::Light(l))))
+            else {
+                continue;
+            };
+            let cos = y.ns.dot(s.dir);
+            if cos <= 0.0 || y.ng.dot(s.dir) <= 0.0 {
+                continue;
+            }
+            counters.gather_rays += 1;
+            if !ctx.accel.occluded(&y.shadow_ray(s.point, s.normal)) {
+                e += s.value * cos;
+            }
+        }
+        e
+    }
+}
+
 /// The patch whose general radiosity a gather at `sp` replaces: a diffuse surface
 /// seen from its front (or either side of a two-sided one).
 pub(super) fn gatherable(ctx: &Context, sp: &SurfacePoint, hit: &crate::accel::Hit) -> Option<u32> {
@@ -349,4 +416,62 @@ pub(super) fn gatherable(ctx: &Context, sp: &SurfacePoint, hit: &crate::accel::H
     let bsdf = &ctx.scene.bsdfs[shape.bsdf as usize];
     (bsdf.kind.has_diffuse() && (sp.front || bsdf.twosided))
         .then(|| ctx.solution.mesh.patch_at(ctx.scene, hit, sp.front))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::{Bvh, Ray};
+    use crate::radiosity::solve;
+    use crate::scene::Light;
+    use crate::selection::tests::solve_settings;
+    use crate::testutil::{scene, square, v};
+
+    /// A gather ray that lands near relights its hit by shadow rays: under a small
+    /// slab that the 1 m mesh cannot follow, the floor's interpolated light from the
+    /// point light is far from zero, but the relit one is zero; in the open it is the
+    /// closed form I cos / d^2.
+    #[test]
+    fn a_near_hit_is_relit_where_the_mesh_misses_a_shadow() {
+        let s = scene(
+            vec![
+                (square(0.0, 2.0, 0.0, 2.0, 0.0, false), Vec3::splat(0.5)),
+                (square(0.8, 1.2, 0.8, 1.2, 0.1, true), Vec3::splat(0.5)),
+            ],
+            vec![Light::Point {
+                position: v(1.0, 1.0, 2.0),
+                intensity: Vec3::splat(10.0),
+            }],
+            &[],
+        );
+        let bvh = Bvh::build(&s);
+        let sol = solve(&s, &bvh, &solve_settings(1.0, 4), &crate::progress::Silent).unwrap();
+        let ctx = Context {
+            scene: &s,
+            accel: &bvh,
+            solution: &sol,
+        };
+        let g = Gather::new(&ctx, 16, &sol.general);
+        // The floor point (x, y) as a gather ray from just above it meets it.
+        let at = |x: f32, y: f32| {
+            let ray = Ray::new(v(x, y, 0.05), v(0.0, 0.0, -1.0));
+            let hit = bvh.intersect(&ray).expect("the floor");
+            let sp = SurfacePoint::new(&s, &ray, &hit);
+            let q = sol.mesh.patch_at(&s, &hit, sp.front);
+            let w = sol.mesh.locate_on(&s, q, &hit, sp.p);
+            let mut c = Counters::default();
+            let relit = g.relight(&ctx, &sp, q, 7, &mut c);
+            (relit, w.apply(&g.total) - w.apply(&g.unlit), c.gather_rays)
+        };
+        let (relit, interpolated, rays) = at(0.85, 0.85);
+        assert_eq!((relit, rays), (Vec3::ZERO, 1));
+        assert!(
+            interpolated.x > 0.1,
+            "the mesh sees no shadow there: {interpolated}"
+        );
+        let (relit, _, _) = at(0.3, 0.3);
+        let d = v(1.0, 1.0, 2.0) - v(0.3, 0.3, 0.0);
+        let want = 10.0 * (2.0 / d.length()) / d.length_squared();
+        assert!((relit.x - want).abs() < 1e-4 * want, "{relit} vs {want}");
+    }
 }
