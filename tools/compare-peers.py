@@ -377,12 +377,24 @@ def reference_key(scene: Path, defines: dict) -> str:
     return h.hexdigest()[:12]
 
 
+def reference(args, scene: Path, defines: dict, given=None) -> Path:
+    """The Mitsuba reference of `scene`: `given`, else one rendered at
+    --reference-spp and cached in the venv by the scene's contents."""
+    if given:
+        return Path(given)
+    cache = args.venv / "references"
+    cache.mkdir(parents=True, exist_ok=True)
+    ref = cache / f"{scene.stem}-{reference_key(scene, defines)}-{args.reference_spp}spp.exr"
+    if not ref.exists():
+        print(f"compare-peers: Mitsuba reference, {args.reference_spp} spp (cached in {ref})", file=sys.stderr)
+        mitsuba_render(scene, ref, args.reference_spp, 0, defines)
+    return ref
+
+
 def mitsuba_time_to_quality(args, exe: str):
     rows = []
     if args.reference and len(args.mitsuba_scenes) != 1:
         sys.exit("compare-peers: error: --reference needs exactly one scene in --mitsuba-scenes")
-    cache = args.venv / "references"
-    cache.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         for entry in args.mitsuba_scenes:
@@ -392,11 +404,7 @@ def mitsuba_time_to_quality(args, exe: str):
             if view != 0:
                 sys.exit("compare-peers: error: the Mitsuba comparison renders sensor 0 only")
             defines = mitsuba_defines(exe, scene, work)
-            key = reference_key(scene, defines)
-            ref = Path(args.reference) if args.reference else cache / f"{scene.stem}-{key}-{args.reference_spp}spp.exr"
-            if not ref.exists():
-                print(f"compare-peers: Mitsuba reference, {args.reference_spp} spp (cached in {ref})", file=sys.stderr)
-                mitsuba_render(scene, ref, args.reference_spp, 0, defines)
+            ref = reference(args, scene, defines, args.reference)
             print(f"compare-peers: Mitsuba {args.mitsuba_spp} spp on {scene.name}", file=sys.stderr)
             best_m = None
             for _ in range(args.rounds):
@@ -435,6 +443,170 @@ def mitsuba_time_to_quality(args, exe: str):
     return rows
 
 
+CYCLES = Path(__file__).resolve().parent / "cycles_render.py"
+# Blender as a Python module; 5.0.1 is the release the comparison was checked with.
+CYCLES_PACKAGE = "bpy==5.0.1"
+QUALITY = ["draft", "good", "final"]
+
+
+def ensure_package(module: str, package: str) -> None:
+    """Installs `package` into this (the venv's) Python when `module` is missing."""
+    try:
+        __import__(module)
+    except ImportError:
+        print(f"compare-peers: installing {package}", file=sys.stderr)
+        subprocess.run([sys.executable, "-m", "pip", "install", "-q", package], check=True)
+
+
+def cycles_render(args, scene: Path, out: Path, spp: int, denoise: bool, defines: dict) -> dict:
+    """Renders with Blender Cycles (tools/cycles_render.py) in a fresh process: the
+    render call's time and the process's, or the reason the scene cannot be carried
+    over (`error`)."""
+    cmd = [sys.executable, str(CYCLES), str(scene), str(out), "--spp", str(spp),
+           "--threads", str(args.threads), "--seed", "1"] + (["--denoise"] if denoise else [])
+    for k, v in defines.items():
+        cmd += ["-D", f"{k}={v}"]
+    t = time.perf_counter()
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        return {"error": (r.stderr.strip().splitlines() or ["failed"])[-1]}
+    doc = json.loads(r.stdout.strip().splitlines()[-1])
+    doc["process_s"] = time.perf_counter() - t
+    return doc
+
+
+def mean_ratio(ref: Path, img: Path) -> float:
+    """Mean of `img` over the mean of `ref` (all channels)."""
+    import mitsuba as mi
+    import numpy as np
+
+    mi.set_variant("scalar_rgb")
+    a = np.array(mi.Bitmap(str(ref)))[..., :3]
+    b = np.array(mi.Bitmap(str(img)))[..., :3]
+    return float(b.mean() / a.mean())
+
+
+def best_of(n: int, run):
+    """The run (a dict with `process_s`) of the least time out of `n`."""
+    best = None
+    for _ in range(n):
+        r = run()
+        if "error" in r:
+            return r
+        if best is None or r["process_s"] < best["process_s"]:
+            best = r
+    return best
+
+
+def curves(args, exe: str):
+    """FLIP against seconds (whole process, --threads each) for radtrace's quality dial,
+    Mitsuba 3 at --curve-mitsuba-spp and Blender Cycles with OpenImageDenoise at
+    --cycles-spp, on each of --curve-scenes; the Cycles scene is first checked against
+    the Mitsuba reference (its mean within 3 % at --cycles-check-spp, undenoised)."""
+    cycles = not args.no_cycles
+    if cycles:
+        ensure_package("bpy", CYCLES_PACKAGE)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp)
+        for entry in args.curve_scenes:
+            scene = Path(entry) if Path(entry).is_absolute() else REPO / entry
+            defines = mitsuba_defines(exe, scene, work)
+            ref = reference(args, scene, defines)
+            points = []
+            for q in QUALITY:
+                print(f"compare-peers: radtrace --quality {q} on {scene.name}", file=sys.stderr)
+
+                def run():
+                    t = time.perf_counter()
+                    subprocess.run([exe, "render", str(scene), "-o", str(work / "r.exr"), "-q", "--quality", q,
+                                    "--threads", str(args.threads)], check=True)
+                    return {"process_s": time.perf_counter() - t}
+                r = best_of(args.rounds, run)
+                points.append({"renderer": "radtrace", "setting": q, "seconds": r["process_s"],
+                               "flip": flip(exe, ref, work / "r.exr")})
+            for spp in args.curve_mitsuba_spp:
+                print(f"compare-peers: Mitsuba {spp} spp on {scene.name}", file=sys.stderr)
+                r = best_of(args.rounds, lambda: mitsuba_render(scene, work / "m.exr", spp, 1, defines))
+                points.append({"renderer": "Mitsuba 3", "setting": f"{spp} spp", "seconds": r["process_s"],
+                               "render_s": r["render_s"], "flip": flip(exe, ref, work / "m.exr")})
+            check = None
+            if cycles:
+                print(f"compare-peers: Cycles check, {args.cycles_check_spp} spp on {scene.name}", file=sys.stderr)
+                c = cycles_render(args, scene, work / "c.exr", args.cycles_check_spp, False, defines)
+                if "error" in c:
+                    check = {"skipped": c["error"]}
+                else:
+                    check = {"spp": args.cycles_check_spp, "flip": flip(exe, ref, work / "c.exr"),
+                             "mean_ratio": mean_ratio(ref, work / "c.exr"), "blender": c["blender"]}
+                    if abs(check["mean_ratio"] - 1.0) > 0.03:
+                        check["skipped"] = f"its mean is {check['mean_ratio']:.3f} of Mitsuba's: not the same scene"
+                print(f"compare-peers: Cycles check: {check}", file=sys.stderr)
+                if "skipped" not in check:
+                    for spp in args.cycles_spp:
+                        print(f"compare-peers: Cycles + OIDN {spp} spp on {scene.name}", file=sys.stderr)
+                        r = best_of(args.rounds, lambda: cycles_render(args, scene, work / "c.exr", spp, True, defines))
+                        points.append({"renderer": "Cycles + OIDN", "setting": f"{spp} spp",
+                                       "seconds": r["process_s"], "render_s": r["render_s"],
+                                       "flip": flip(exe, ref, work / "c.exr")})
+            rows.append({"scene": scene.name, "reference_spp": args.reference_spp, "points": points,
+                         "cycles_check": check})
+    print()
+    print(f"FLIP against seconds (whole process, {args.threads} threads; mean FLIP against Mitsuba path "
+          f"{args.reference_spp} spp; load average {os.getloadavg()[0]:.2f})")
+    print(f"{'scene':<20} {'renderer':<15} {'setting':<9} {'seconds':>8} {'FLIP':>7}")
+    for row in rows:
+        for p in row["points"]:
+            print(f"{row['scene']:<20} {p['renderer']:<15} {p['setting']:<9} {p['seconds']:8.2f} {p['flip']:7.4f}")
+        if row["cycles_check"]:
+            print(f"{row['scene']:<20} Cycles check: {row['cycles_check']}")
+    if args.plot:
+        plot(rows, args.plot, args.threads)
+    return rows
+
+
+def min_s(row) -> float:
+    return min(p["seconds"] for p in row["points"])
+
+
+def max_s(row) -> float:
+    return max(p["seconds"] for p in row["points"])
+
+
+def plot(rows, path: Path, threads: int) -> None:
+    """One panel per scene: FLIP against seconds, a line per renderer."""
+    ensure_package("matplotlib", "matplotlib")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import matplotlib.ticker
+
+    fig, axes = plt.subplots(1, len(rows), figsize=(5.2 * len(rows), 4.2), squeeze=False)
+    styles = {"radtrace": ("C3", "o"), "Mitsuba 3": ("C0", "s"), "Cycles + OIDN": ("C2", "^")}
+    for ax, row in zip(axes[0], rows):
+        for name, (colour, marker) in styles.items():
+            pts = [p for p in row["points"] if p["renderer"] == name]
+            if not pts:
+                continue
+            ax.plot([p["seconds"] for p in pts], [p["flip"] for p in pts], marker=marker, color=colour, label=name)
+            for p in pts:
+                ax.annotate(p["setting"], (p["seconds"], p["flip"]), textcoords="offset points", xytext=(4, 4),
+                            fontsize=7, color=colour)
+        ax.set_xscale("log")
+        ticks = [t for t in (1, 2, 5, 10, 20, 50, 100, 200, 500) if 0.5 * min_s(row) <= t <= 2 * max_s(row)]
+        ax.set_xticks(ticks, [str(t) for t in ticks])
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+        ax.set_xlabel(f"seconds, whole process, {threads} threads")
+        ax.set_ylabel("mean FLIP against the reference")
+        ax.set_title(row["scene"])
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    print(f"compare-peers: plot -> {path}", file=sys.stderr)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scenes", nargs="+", default=None, help="scene files (default: the repository's)")
@@ -454,8 +626,28 @@ def main():
     ap.add_argument("--mitsuba-spp", type=int, default=64, help="Mitsuba's samples per pixel to match")
     ap.add_argument("--reference-spp", type=int, default=1024, help="samples per pixel of the Mitsuba reference")
     ap.add_argument("--reference", help="an existing Mitsuba reference EXR to use (one scene)")
+    ap.add_argument("--curves", action="store_true",
+                    help="FLIP against seconds for radtrace's quality dial, Mitsuba and denoised Cycles")
+    ap.add_argument("--curve-scenes", nargs="+",
+                    default=["scenes/cornell-box/cornell-box.xml", "scenes/paper-room/paper-room.xml"],
+                    help="scenes of --curves (sensor 0)")
+    ap.add_argument("--curve-mitsuba-spp", type=int, nargs="+", default=[16, 64, 256])
+    ap.add_argument("--cycles-spp", type=int, nargs="+", default=[4, 16, 64],
+                    help="samples per pixel of Cycles (with OpenImageDenoise) in --curves")
+    ap.add_argument("--cycles-check-spp", type=int, default=64,
+                    help="samples per pixel of the undenoised Cycles render checked against the reference")
+    ap.add_argument("--no-cycles", action="store_true", help="leave Cycles out of --curves")
+    ap.add_argument("--plot", type=Path, help="with --curves: write the plot (PNG) here")
+    ap.add_argument("--replot", type=Path, metavar="JSON",
+                    help="draw --plot from the curves of an earlier --json file, measuring nothing")
     args = ap.parse_args()
     ensure_venv(args.venv)
+    if args.replot:
+        if not args.plot:
+            sys.exit("compare-peers: error: --replot needs --plot FILE")
+        doc = json.loads(args.replot.read_text())
+        plot(doc["curves"], args.plot, doc.get("threads", args.threads))
+        return
 
     scenes = [Path(s) for s in args.scenes] if args.scenes else [
         REPO / s for s in DEFAULT_SCENES if (REPO / s).exists()
@@ -469,8 +661,10 @@ def main():
             results.append(compare_scene(args, exe, s))
         ok = print_table(results, args.threads)
     mitsuba = None if args.no_mitsuba else mitsuba_time_to_quality(args, exe)
+    curve_rows = curves(args, exe) if args.curves else None
     if args.json:
-        args.json.write_text(json.dumps({"rays": results, "mitsuba": mitsuba}, indent=2) + "\n")
+        args.json.write_text(json.dumps({"rays": results, "mitsuba": mitsuba, "curves": curve_rows,
+                                          "threads": args.threads}, indent=2) + "\n")
     if not ok:
         print("compare-peers: error: radtrace and Embree disagree on more than 0.1% of some ray set", file=sys.stderr)
         sys.exit(1)
