@@ -24,10 +24,10 @@ pub type StepSink<'s> = &'s mut dyn FnMut(&str, &Output) -> Result<()>;
 /// With `steps`, the paper's progressive display (Sect. 3) comes first: "initially,
 /// the general radiosity term is displayed and, starting with the most important light
 /// sources, their contribution is calculated more accurately with shadow ray tracing".
-/// Each step is a render of the same settings without the final gather: the solution
-/// alone, then the 1, 2, 4 ... strongest of the selected sources ray traced (the others
-/// from the solution, [`Selection::only`]), then, with a gather, all of them; each goes
-/// to `steps` as it is done. The render returned is the one without `steps`, so the
+/// Each step is a preview of the same settings at one sample per pixel and without the
+/// final gather: the solution alone, then the 1, 2, 4 ... strongest of the selected
+/// sources ray traced (the others from the solution, [`Selection::only`]), then, with a
+/// gather, all of them; each goes to `steps` as it is done. The render returned is the one without `steps`, so the
 /// last image is the same.
 #[allow(clippy::too_many_arguments)]
 pub fn select_and_render<'a>(
@@ -56,10 +56,14 @@ pub fn select_and_render<'a>(
         selected(sel);
     }
     if let (Some(sink), Some(full)) = (steps, &selection) {
-        let step = Settings {
+        // Steps before the last are previews: one sample per pixel (the adaptive
+        // sampler's level 0, or one uniform sample), no gather.
+        let mut step = Settings {
             gather: 0,
+            spp: 1,
             ..settings.clone()
         };
+        step.refine.max_level = 0;
         let ranked = full.ranked(scene);
         let n = ranked.len();
         // Sources ray traced at each step: none, 1, 2, 4 ... below all; all too when
