@@ -937,3 +937,115 @@ fn progressive_steps_end_with_the_image_of_the_plain_render() {
         "--progressive",
     );
 }
+
+/// `--display-server` streams to tev: one CreateImage packet (type 4: name, size,
+/// channels R, G, B), then per step and for the final image an UpdateImageV3 packet
+/// (type 6) whose interleaved floats are the image written to the file. Packets as
+/// tev's `Ipc.h` reads them: a little-endian u32 size counting itself, a type byte,
+/// then the fields. An address where nothing listens is one clear error.
+#[test]
+fn the_display_server_gets_each_step_and_the_final_image_in_tevs_protocol() {
+    use std::io::Read;
+    let d = tmp();
+    let scene = write_scene(d.path(), ROOMLET);
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap().to_string();
+    let server = std::thread::spawn(move || {
+        let (mut conn, _) = listener.accept().unwrap();
+        let mut bytes = Vec::new();
+        conn.read_to_end(&mut bytes).unwrap();
+        bytes
+    });
+    let out = d.path().join("tev.exr");
+    let o = radtrace(&[
+        "render",
+        &s(&scene),
+        "-o",
+        &s(&out),
+        "--mesh-size",
+        "0.5",
+        "--width",
+        "20",
+        "--height",
+        "12",
+        "--method",
+        "norm",
+        "--progressive",
+        "--display-server",
+        &addr,
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bytes = server.join().unwrap();
+    // Split into packets and read their fields.
+    let mut packets = Vec::new();
+    let mut at = 0;
+    while at < bytes.len() {
+        let n = u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap()) as usize;
+        packets.push(&bytes[at..at + n]);
+        at += n;
+    }
+    assert_eq!(at, bytes.len());
+    struct Reader<'a>(&'a [u8], usize);
+    impl Reader<'_> {
+        fn u8(&mut self) -> u8 {
+            self.1 += 1;
+            self.0[self.1 - 1]
+        }
+        fn str(&mut self) -> String {
+            let end = self.1 + self.0[self.1..].iter().position(|&b| b == 0).unwrap();
+            let s = String::from_utf8(self.0[self.1..end].to_vec()).unwrap();
+            self.1 = end + 1;
+            s
+        }
+        fn i32(&mut self) -> i32 {
+            self.1 += 4;
+            i32::from_le_bytes(self.0[self.1 - 4..self.1].try_into().unwrap())
+        }
+        fn i64(&mut self) -> i64 {
+            self.1 += 8;
+            i64::from_le_bytes(self.0[self.1 - 8..self.1].try_into().unwrap())
+        }
+        fn f32(&mut self) -> f32 {
+            self.1 += 4;
+            f32::from_le_bytes(self.0[self.1 - 4..self.1].try_into().unwrap())
+        }
+    }
+    let mut r = Reader(packets[0], 4);
+    assert_eq!(r.u8(), 4, "CreateImage first");
+    assert_eq!(r.u8(), 1, "grab focus");
+    let name = r.str();
+    assert!(name.ends_with("tev.exr"), "{name}");
+    assert_eq!((r.i32(), r.i32(), r.i32()), (20, 12, 3));
+    assert_eq!((r.str(), r.str(), r.str()), ("R".into(), "G".into(), "B".into()));
+    // The roomlet's one light, ray traced everywhere by `norm`: the solution alone,
+    // then the final image.
+    assert_eq!(packets.len(), 1 + 2, "{} packets", packets.len());
+    let mut last = Vec::new();
+    for p in &packets[1..] {
+        let mut r = Reader(p, 4);
+        assert_eq!(r.u8(), 6, "UpdateImageV3");
+        r.u8();
+        assert_eq!(r.str(), name);
+        assert_eq!(r.i32(), 3);
+        assert_eq!((r.str(), r.str(), r.str()), ("R".into(), "G".into(), "B".into()));
+        assert_eq!((r.i32(), r.i32(), r.i32(), r.i32()), (0, 0, 20, 12));
+        assert_eq!((r.i64(), r.i64(), r.i64()), (0, 1, 2));
+        assert_eq!((r.i64(), r.i64(), r.i64()), (3, 3, 3));
+        last = (0..20 * 12 * 3).map(|_| r.f32()).collect();
+        assert_eq!(r.1, p.len());
+    }
+    let img = radtrace::io::read_image(&out).unwrap();
+    let want: Vec<f32> = img.pixels.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
+    assert_eq!(last, want);
+    // Nothing listens at a port just freed: one error naming the flag.
+    let free = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .to_string();
+    expect_error(
+        &["render", &s(&scene), "-o", &s(&out), "--display-server", &free],
+        "--display-server",
+    );
+}

@@ -369,6 +369,10 @@ pub struct RenderArgs {
     /// the render without this flag. Ctrl-C leaves the last finished step's image.
     #[arg(long)]
     pub(super) progressive: bool,
+    /// Stream the image to the tev HDR viewer listening at HOST:PORT (tev's default
+    /// port is 14158): every step of --progressive, and the final image.
+    #[arg(long, value_name = "HOST:PORT")]
+    pub(super) display_server: Option<String>,
     /// Write statistics (rays, hits, timings) as JSON to this file.
     #[arg(long, value_name = "FILE")]
     pub(super) stats: Option<PathBuf>,

@@ -5,6 +5,7 @@ use std::time::Instant;
 
 use super::args::{OnOff, RenderArgs};
 use super::{check_output_ext, load_all, render_view, with_threads, write_json};
+use crate::io::display::Display;
 use crate::render::{self, Method, Sampler};
 use crate::stats::{source_names, RenderContext, RenderStats, Timings};
 use crate::{Error, Result};
@@ -78,11 +79,21 @@ pub(super) fn cmd_render(a: RenderArgs) -> Result<()> {
         let solve = (a.method != Method::Direct).then_some((&a.solve, a.image.seed));
         let l = load_all(&a.scene, a.solution.as_deref(), solve, a.quiet, &mut t)?;
         let settings = a.settings(&l.scene, sampler, refine)?;
+        let mut display = match &a.display_server {
+            Some(addr) => Some(Display::connect(
+                addr,
+                &a.output.display().to_string(),
+                settings.width,
+                settings.height,
+            )?),
+            None => None,
+        };
         // The progressive display's steps: each image replaces the last (atomically).
         let mut step = 0;
         let mut write_step = |label: &str, out: &render::Output| -> Result<()> {
             step += 1;
             crate::io::write_image(&out.image, &a.output, a.exposure)?;
+            show(&mut display, &out.image, a.quiet);
             if !a.quiet {
                 eprintln!(
                     "radtrace: step {step}, {label}: {:.2} s -> {}",
@@ -96,6 +107,7 @@ pub(super) fn cmd_render(a: RenderArgs) -> Result<()> {
             .progressive
             .then_some(&mut write_step as crate::experiments::StepSink);
         let (out, selection) = render_view(&l, &settings, &select_settings, steps, a.quiet, &mut t)?;
+        show(&mut display, &out.image, a.quiet);
         if let (Some(path), Some(sel)) = (&a.selection_map, &selection) {
             let camera = crate::camera::Camera::new(l.scene.sensor(a.view)?, settings.width, settings.height);
             let img = t.time("selection_map", || {
@@ -208,6 +220,19 @@ pub(super) fn cmd_render(a: RenderArgs) -> Result<()> {
         }
         Ok(())
     })
+}
+
+/// Sends `image` to the display server, if any; a display that stopped listening is
+/// dropped with one warning (the render and its files go on).
+fn show(display: &mut Option<Display>, image: &crate::image::Image, quiet: bool) {
+    if let Some(d) = display {
+        if let Err(e) = d.update(image) {
+            if !quiet {
+                eprintln!("radtrace: warning: --display-server: {e}; no more updates sent");
+            }
+            *display = None;
+        }
+    }
 }
 
 /// Reads the baseline of `--baseline`: a `--stats` file.

@@ -5,6 +5,7 @@
 //! file beside the target, synced, and renamed over it, so an interrupted run never
 //! leaves a partial file and an existing output is only ever replaced by a complete one.
 
+pub mod display;
 mod obj;
 pub mod solution;
 
