@@ -128,6 +128,13 @@ impl<'a> Tracer<'a> {
                 let n = (e.corners[1] - e.corners[0]).cross(e.corners[2] - e.corners[0]);
                 let area = 0.5 * n.length();
                 let n = n.normalize_or(Vec3::Z);
+                // A curved patch's piece is a chord of its surface: photons leave from
+                // the surface the rays see, not from inside a closed object.
+                let (x_out, n_out) = if self.curved(e.patch) {
+                    self.onto_surface(e, x, n)
+                } else {
+                    (x, n)
+                };
                 let prob = table.probability(k);
                 let w = self.mesh.weights_on(e, x);
                 let b_unshot = w.apply(self.unshot);
@@ -135,9 +142,9 @@ impl<'a> Tracer<'a> {
                 let power = b_unshot * (area / (prob as f32 * self.patch_photons as f32));
                 let [u, v, _] = next();
                 (
-                    x,
-                    n,
-                    cosine_direction(n, Vec2::new(u, v)),
+                    x_out,
+                    n_out,
+                    cosine_direction(n_out, Vec2::new(u, v)),
                     power,
                     Some(SourceId::Patch(e.patch)),
                     false,
@@ -169,6 +176,46 @@ impl<'a> Tracer<'a> {
             );
         }
         (out, rays)
+    }
+
+    /// Whether patch `p` is curved (a Bezier piece): its elements are chords.
+    fn curved(&self, p: u32) -> bool {
+        self.mesh.patches[p as usize]
+            .grids
+            .iter()
+            .any(|g| matches!(g.domain, crate::mesh::Domain::Bezier { .. }))
+    }
+
+    /// The point of the patch's surface (as the rays see it) nearest to `x` along the
+    /// piece's normal `n`, within the piece's size, and the surface's normal there on
+    /// `n`'s side; `(x, n)` when no such point is found. On a convex part of a closed
+    /// curved object a point of an element's chord lies inside it, and a photon from
+    /// there would light the object's inside (the paper room's teapot: interior
+    /// vertices at 2-8 against 0).
+    fn onto_surface(&self, e: &Piece, x: Vec3, n: Vec3) -> (Vec3, Vec3) {
+        let c = e.corners;
+        let reach = (c[1] - c[0])
+            .length()
+            .max((c[2] - c[1]).length())
+            .max((c[0] - c[2]).length());
+        let shape = self.mesh.patches[e.patch as usize].shape;
+        let mut best: Option<(f32, Vec3, Vec3)> = None;
+        for dir in [n, -n] {
+            let ray = Ray {
+                origin: x,
+                dir,
+                tmin: 0.0,
+                tmax: reach,
+            };
+            if let Some(hit) = self.accel.intersect(&ray) {
+                if hit.shape == shape && best.is_none_or(|b| hit.t < b.0) {
+                    let sp = SurfacePoint::new(self.scene, &ray, &hit);
+                    let ng = if sp.ng.dot(n) >= 0.0 { sp.ng } else { -sp.ng };
+                    best = Some((hit.t, sp.p, ng));
+                }
+            }
+        }
+        best.map_or((x, n), |(_, p, ng)| (p, ng))
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -219,10 +266,13 @@ impl<'a> Tracer<'a> {
                 if !(ps > 0.0) || u >= ps {
                     return;
                 }
+                dir = reflect(dir, sp.ns);
+                if !reflects(dir, sp.ng) {
+                    return;
+                }
                 power *= spec / ps;
                 origin = sp.p;
                 normal = sp.ng;
-                dir = reflect(dir, sp.ns);
                 source = None;
                 continue;
             }
@@ -261,6 +311,9 @@ impl<'a> Tracer<'a> {
             } else if u < pd + ps && ps > 0.0 {
                 power *= spec / ps;
                 dir = reflect(dir, sp.ns);
+                if !reflects(dir, sp.ng) {
+                    return;
+                }
                 source = None;
             } else {
                 return;
@@ -289,6 +342,15 @@ impl<'a> Tracer<'a> {
     pub fn trace_chunks(&self, range: std::ops::Range<u64>) -> Vec<(Vec<Deposit>, u64)> {
         range.into_par_iter().map(|c| self.chunk(c)).collect()
     }
+}
+
+/// Whether `dir`, a mirror reflection about the shading normal, leaves on the side of
+/// the surface it came from (`ng` faces that side). Where the shading normal leans away
+/// from the geometric one (smooth normals on a curved tessellated surface, at grazing
+/// angles) it may not; the photon would then be offset to the far side and pass through
+/// the surface into a closed object (the renderer drops such reflections too).
+fn reflects(dir: Vec3, ng: Vec3) -> bool {
+    dir.dot(ng) > 0.0
 }
 
 /// Whether any surface of the scene reflects like a mirror.

@@ -738,3 +738,58 @@ fn cells_touch_where_they_share_a_corner() {
     assert_eq!(t.of(3), &[] as &[u32]);
     assert_eq!(t.of(9), &[] as &[u32], "no such cell");
 }
+
+/// Photons leave a curved patch from its surface, not from its elements' chords: a
+/// closed two-sided Bezier teapot (its lid on) on a floor under a point light, meshed
+/// coarsely (elements of about a third of its size), stays darker inside than out.
+/// From the chords, which lie inside its convex parts, photons lit the inside more
+/// brightly than the outside (area-weighted mean 1.23 times the outside's here, 1.52
+/// in the paper room).
+#[test]
+fn photons_from_a_curved_patch_do_not_light_a_closed_objects_inside() {
+    let teapot = crate::testutil::teapot_bpt();
+    let text = format!(
+        r#"<scene version="3.0.0">
+  <bsdf type="twosided" id="white"><bsdf type="diffuse"><rgb name="reflectance" value="0.7"/></bsdf></bsdf>
+  <shape type="rectangle"><transform name="to_world"><scale value="2"/></transform><ref id="white"/></shape>
+  <shape type="bezier" id="teapot">
+    <string name="filename" value="{}"/>
+    <transform name="to_world"><scale value="0.1"/></transform>
+    <ref id="white"/>
+  </shape>
+  <emitter type="point"><point name="position" x="0.4" y="0.3" z="1.2"/><rgb name="intensity" value="5"/></emitter>
+  <sensor type="perspective"><transform name="to_world"><lookat origin="1, 1, 1" target="0, 0, 0" up="0, 0, 1"/></transform></sensor>
+</scene>"#,
+        teapot.display()
+    );
+    let s = crate::scene::xml::load_str(std::path::Path::new("teapot.xml"), &text, &[])
+        .unwrap()
+        .scene;
+    let bvh = Bvh::build(&s);
+    let st = SolveSettings {
+        photons: 64,
+        max_photons: 0,
+        ..crate::selection::tests::solve_settings(0.1, 4)
+    };
+    let sol = solve(&s, &bvh, &st, &crate::progress::Silent).unwrap();
+    let total = sol.total();
+    let m = &sol.mesh;
+    let (mut outside, mut inside) = ((0.0f64, 0.0f64), (0.0f64, 0.0f64));
+    for (v, vx) in m.vertices.iter().enumerate() {
+        if m.patches[vx.patch as usize].shape != 1 {
+            continue;
+        }
+        let side = if vx.patch >= m.front_patches {
+            &mut inside
+        } else {
+            &mut outside
+        };
+        side.0 += f64::from(mean(total[v]) * vx.area);
+        side.1 += f64::from(vx.area);
+    }
+    let ratio = (inside.0 / inside.1) / (outside.0 / outside.1);
+    assert!(sol.stats.photons > 0 && outside.0 > 0.0);
+    // (Measured 0.34; 1.23 from the chords. What is left is not all the lid's gap:
+    // the shots alone leave the paper room's teapot at 0.016, photons at 0.14.)
+    assert!(ratio < 0.6, "inside {ratio:.3} of the outside");
+}
