@@ -767,9 +767,10 @@ fn photons_from_a_curved_patch_do_not_light_a_closed_objects_inside() {
         .scene;
     let bvh = Bvh::build(&s);
     let st = SolveSettings {
+        tolerance: 0.01,
+        seed: 1,
         photons: 64,
-        max_photons: 0,
-        ..crate::selection::tests::solve_settings(0.1, 4)
+        ..settings(0.1, 64, 40)
     };
     let sol = solve(&s, &bvh, &st, &crate::progress::Silent).unwrap();
     let total = sol.total();
