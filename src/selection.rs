@@ -306,6 +306,7 @@ impl<'a> Selection<'a> {
     /// stored, occluded contribution, as for a listed source the criteria turned
     /// down), so each source still reaches a point by one route. The paper's
     /// progressive display (Sect. 3) shows these in turn, strongest sources first.
+    /// It carries no `criteria`: they are the full selection's.
     pub fn only(&self, keep: &[u32]) -> Selection<'a> {
         let mesh = &self.solution.mesh;
         let mut stored = self.stored.clone();
@@ -336,7 +337,8 @@ impl<'a> Selection<'a> {
             stored,
             offsets,
             picks,
-            criteria: self.criteria.clone(),
+            // (The criteria's verdicts are the full selection's; a render reads none.)
+            criteria: Vec::new(),
         }
     }
 }

@@ -42,7 +42,7 @@ use rayon::prelude::*;
 use super::counters::Counters;
 use crate::accel::Accel;
 use crate::camera::Camera;
-use crate::emitters::SampledLight;
+use crate::emitters::{group_point, SampledLight};
 use crate::interaction::{reflect, SurfacePoint};
 use crate::radiosity::Solution;
 use crate::radiosity::SourceId;
@@ -96,8 +96,6 @@ pub struct Gather {
     /// on its patch: what a gather ray that lands nearer than [`Gather::near`] reads,
     /// before it adds that light by shadow rays from where it landed.
     unlit: Vec<Rgb>,
-    /// The scene's lights, prepared for sampling.
-    lights: Vec<SampledLight>,
     /// Gather rays that land nearer than this (the mesh size) relight their hit.
     near: f32,
     /// Per vertex, the part of the selection's stored radiosity that the gather keeps:
@@ -115,12 +113,15 @@ pub struct Gather {
     levels: u8,
 }
 
-/// What the gather reads: the scene, its rays, and the solution (its mesh, lists
-/// and radiosity).
+/// What the gather reads: the scene, its rays, the solution (its mesh, lists and
+/// radiosity), and the scene's lights as the render samples them (the selection's
+/// first sources, with `area_samples` sub-sources to an area light).
 pub struct Context<'a> {
     pub scene: &'a Scene,
     pub accel: &'a dyn Accel,
     pub solution: &'a Solution,
+    pub lights: &'a [SampledLight],
+    pub area_samples: u32,
 }
 
 impl Gather {
@@ -162,12 +163,6 @@ impl Gather {
             rays,
             total,
             unlit,
-            lights: ctx
-                .scene
-                .lights
-                .iter()
-                .map(|l| SampledLight::prepare(ctx.scene, l))
-                .collect(),
             near: sol.settings.mesh_size,
             kept,
             folded,
@@ -392,8 +387,15 @@ impl Gather {
             let SourceId::Light(l) = entry.source else {
                 continue;
             };
-            let Some(s) = self.lights[l as usize].sample(y.p, uniform2(derive(seed, Stream::Light(l))))
-            else {
+            let light = &ctx.lights[l as usize];
+            // One group of all its sub-sources: the render's rule for a light point.
+            let n = if light.is_area() {
+                ctx.area_samples.max(1)
+            } else {
+                1
+            };
+            let (_, _, uv) = group_point(0, 1, n, derive(seed, Stream::Light(l)));
+            let Some(s) = light.sample(y.p, uv) else {
                 continue;
             };
             let cos = y.ns.dot(s.dir);
@@ -446,10 +448,13 @@ mod tests {
         );
         let bvh = Bvh::build(&s);
         let sol = solve(&s, &bvh, &solve_settings(1.0, 4), &crate::progress::Silent).unwrap();
+        let lights: Vec<SampledLight> = s.lights.iter().map(|l| SampledLight::prepare(&s, l)).collect();
         let ctx = Context {
             scene: &s,
             accel: &bvh,
             solution: &sol,
+            lights: &lights,
+            area_samples: 16,
         };
         let g = Gather::new(&ctx, 16, &sol.general);
         // The floor point (x, y) as a gather ray from just above it meets it.

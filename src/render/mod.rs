@@ -155,6 +155,8 @@ pub fn render(
             scene,
             accel,
             solution: sel.solution,
+            lights: &sel.emitters[..scene.lights.len()],
+            area_samples: settings.area_samples,
         };
         let mut g = Gather::new(&ctx, settings.gather, &sel.stored);
         first += g.record(&ctx, &camera, settings);

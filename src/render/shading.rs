@@ -181,6 +181,8 @@ impl<'a> Tracer<'a> {
                                 scene: self.scene,
                                 accel: self.accel,
                                 solution: selection.solution,
+                                lights: &self.sources[..self.scene.lights.len()],
+                                area_samples: self.area_samples,
                             };
                             let e = g.irradiance(&ctx, &sp, patch, seed, counters);
                             let mut sum = (g.kept(&interp) + bsdf.kind.diffuse_albedo() * e)
