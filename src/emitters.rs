@@ -12,6 +12,7 @@
 
 use glam::{Vec2, Vec3};
 
+use crate::geometry::Quadric;
 use crate::scene::{mean, Light, Rgb, Scene};
 
 /// A point on a light source as seen from a receiver.
@@ -50,6 +51,9 @@ pub struct AreaEmitter {
     /// corner and edges: the sampling square maps onto it linearly, so sub-sources are
     /// small parallelograms.
     parallelogram: Option<[Vec3; 3]>,
+    /// When the emitter is an exact sphere or disk: sampled on its true surface
+    /// ([`Quadric::sample`]), not on its triangles.
+    exact: Option<Box<Quadric>>,
 }
 
 /// A light source ready for sampling.
@@ -139,6 +143,9 @@ impl SampledLight {
             }
             Light::Area { shape, radiance } => {
                 let mesh = &scene.shapes[shape as usize].mesh;
+                if let Some(q) = mesh.quadric {
+                    return SampledLight::Area(AreaEmitter::exact(q, radiance));
+                }
                 let tris = (0..mesh.triangle_count()).map(|t| mesh.triangle(t));
                 SampledLight::Area(AreaEmitter::new(tris, radiance, Vec::new()))
             }
@@ -238,8 +245,7 @@ impl SampledLight {
                 })
             }
             SampledLight::Area(e) => {
-                let (origin, i, radiance) = e.point(Vec2::new(u[0], u[1]))?;
-                let n = e.normals[i];
+                let (origin, n, radiance) = e.point(Vec2::new(u[0], u[1]))?;
                 Some(Emission {
                     origin,
                     normal: Some(n),
@@ -295,24 +301,43 @@ impl AreaEmitter {
             radiance,
             corner_radiance: corners,
             parallelogram,
+            exact: None,
+        }
+    }
+
+    /// An emitter of radiance `radiance` over the exact surface `q` (on its front).
+    pub fn exact(q: Quadric, radiance: Rgb) -> Self {
+        AreaEmitter {
+            tris: Vec::new(),
+            normals: Vec::new(),
+            cdf: Vec::new(),
+            area: q.area(),
+            radiance,
+            corner_radiance: Vec::new(),
+            parallelogram: None,
+            exact: Some(Box::new(q)),
         }
     }
 
     /// Uniform sample of the surface by area, mapped from `u` so that stratified `u`
     /// gives well-spread points.
     fn sample(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
-        let (point, i, radiance) = self.point(u)?;
-        self.light_sample(p, point, i, radiance)
+        let (point, normal, radiance) = self.point(u)?;
+        self.light_sample(p, point, normal, radiance)
     }
 
-    /// The surface point `u` maps to (uniform by area): the point, its triangle and
-    /// the radiance there.
-    fn point(&self, u: Vec2) -> Option<(Vec3, usize, Rgb)> {
+    /// The surface point `u` maps to (uniform by area): the point, the unit normal
+    /// there and the radiance there.
+    fn point(&self, u: Vec2) -> Option<(Vec3, Vec3, Rgb)> {
+        if let Some(q) = &self.exact {
+            let (p, n) = q.sample(u);
+            return Some((p, n, self.radiance));
+        }
         if self.tris.is_empty() {
             return None;
         }
         if let Some([o, e1, e2]) = self.parallelogram {
-            return Some((o + e1 * u.x + e2 * u.y, 0, self.radiance));
+            return Some((o + e1 * u.x + e2 * u.y, self.normals[0], self.radiance));
         }
         let i = self.cdf.partition_point(|&c| c <= u.x).min(self.tris.len() - 1);
         let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
@@ -330,11 +355,11 @@ impl AreaEmitter {
             Some([ra, rb, rc]) => *ra * (1.0 - b1 - b2) + *rb * b1 + *rc * b2,
             None => self.radiance,
         };
-        Some((point, i, radiance))
+        Some((point, self.normals[i], radiance))
     }
 
-    /// The sample at `point` of triangle `i` with `radiance`, seen from `p`.
-    fn light_sample(&self, p: Vec3, point: Vec3, i: usize, radiance: Rgb) -> Option<LightSample> {
+    /// The sample at `point`, of unit normal `normal`, with `radiance`, seen from `p`.
+    fn light_sample(&self, p: Vec3, point: Vec3, normal: Vec3, radiance: Rgb) -> Option<LightSample> {
         let d = point - p;
         let dist2 = d.length_squared();
         let dist = dist2.sqrt();
@@ -342,7 +367,7 @@ impl AreaEmitter {
             return None;
         }
         let dir = d / dist;
-        let cos_l = -dir.dot(self.normals[i]);
+        let cos_l = -dir.dot(normal);
         if !(cos_l > 0.0) {
             return None;
         }
@@ -351,7 +376,7 @@ impl AreaEmitter {
             dir,
             dist,
             value: radiance * (cos_l * self.area / dist2),
-            normal: Some(self.normals[i]),
+            normal: Some(normal),
         })
     }
 }
@@ -608,6 +633,53 @@ mod tests {
         assert!((f(27.5) - 0.25).abs() < 1e-4);
         assert_eq!(f(30.5), 0.0);
         assert_eq!(f(120.0), 0.0);
+    }
+
+    /// Irradiance at `p` (normal `n`) from `e` by a stratified `k x k` estimate.
+    fn irradiance(e: &SampledLight, p: Vec3, n: Vec3, k: u32) -> f32 {
+        let mut sum = 0.0;
+        for i in 0..k {
+            for j in 0..k {
+                let u = Vec2::new((i as f32 + 0.5) / k as f32, (j as f32 + 0.5) / k as f32);
+                if let Some(s) = e.sample(p, u) {
+                    sum += s.value.x * s.dir.dot(n).max(0.0);
+                }
+            }
+        }
+        sum / (k * k) as f32
+    }
+
+    #[test]
+    fn exact_sphere_and_disk_lights_give_the_closed_form_irradiance() {
+        use crate::geometry::shapes;
+        // A sphere light of radius R and radiance L seen face on from distance d:
+        // E = pi L (R / d)^2.
+        let (c, r) = (Vec3::new(0.0, 3.0, 0.0), 0.5);
+        let q = shapes::sphere(c, r).quadric.unwrap();
+        let e = SampledLight::Area(AreaEmitter::exact(q, Vec3::ONE));
+        let want = std::f32::consts::PI * (r / 3.0) * (r / 3.0);
+        let got = irradiance(&e, Vec3::ZERO, Vec3::Y, 256);
+        assert!((got / want - 1.0).abs() < 0.01, "sphere: {got} vs {want}");
+        // A disk of radius a at height h, parallel, straight below its centre:
+        // E = pi L a^2 / (a^2 + h^2); and off axis at distance x (Sparrow):
+        // E = pi L / 2 (1 - (h^2 + x^2 - a^2) / sqrt((h^2 + x^2 + a^2)^2 - 4 a^2 x^2)).
+        let (a, h) = (0.5f32, 1.0f32);
+        let mut m = shapes::disk();
+        m.transform(
+            &(glam::Mat4::from_translation(Vec3::new(0.0, 0.0, h))
+                * glam::Mat4::from_rotation_x(std::f32::consts::PI)
+                * glam::Mat4::from_scale(Vec3::splat(a))),
+        );
+        let e = SampledLight::Area(AreaEmitter::exact(m.quadric.unwrap(), Vec3::ONE));
+        let pi = std::f32::consts::PI;
+        for x in [0.0f32, 0.4, 1.5] {
+            let (s, t) = (h * h + x * x, 4.0 * a * a * x * x);
+            let want = 0.5 * pi * (1.0 - (s - a * a) / ((s + a * a) * (s + a * a) - t).sqrt());
+            let got = irradiance(&e, Vec3::new(x, 0.0, 0.0), Vec3::Z, 128);
+            assert!((got / want - 1.0).abs() < 0.01, "disk at {x}: {got} vs {want}");
+        }
+        // Its back sends nothing.
+        assert_eq!(irradiance(&e, Vec3::new(0.0, 0.0, 2.0), Vec3::NEG_Z, 8), 0.0);
     }
 
     #[test]

@@ -29,16 +29,25 @@ impl SurfacePoint {
     /// The surface point where `ray` met `hit`.
     pub fn new(scene: &Scene, ray: &Ray, hit: &Hit) -> Self {
         let mesh = &scene.shapes[hit.shape as usize].mesh;
-        let [ia, ib, ic] = mesh.indices[hit.tri as usize].map(|i| i as usize);
-        let (a, b, c) = (mesh.positions[ia], mesh.positions[ib], mesh.positions[ic]);
-        let (b1, b2) = (hit.bary.x, hit.bary.y);
-        let b0 = 1.0 - b1 - b2;
-        let p = a * b0 + b * b1 + c * b2;
-        let mut ng = (b - a).cross(c - a).normalize();
-        let mut ns = if mesh.normals.is_empty() {
-            ng
-        } else {
-            (mesh.normals[ia] * b0 + mesh.normals[ib] * b1 + mesh.normals[ic] * b2).normalize_or(ng)
+        let (p, mut ng, mut ns) = match &mesh.quadric {
+            // A sphere or disk: the exact point and normal (both normals alike).
+            Some(q) => {
+                let (p, n) = q.project(ray.at(hit.t));
+                (p, n, n)
+            }
+            None => {
+                let [ia, ib, ic] = mesh.indices[hit.tri as usize].map(|i| i as usize);
+                let (a, b, c) = (mesh.positions[ia], mesh.positions[ib], mesh.positions[ic]);
+                let (b1, b2) = (hit.bary.x, hit.bary.y);
+                let b0 = 1.0 - b1 - b2;
+                let ng = (b - a).cross(c - a).normalize();
+                let ns = if mesh.normals.is_empty() {
+                    ng
+                } else {
+                    (mesh.normals[ia] * b0 + mesh.normals[ib] * b1 + mesh.normals[ic] * b2).normalize_or(ng)
+                };
+                (a * b0 + b * b1 + c * b2, ng, ns)
+            }
         };
         // Keep the shading normal on the geometric normal's side.
         if ns.dot(ng) < 0.0 {

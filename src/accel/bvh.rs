@@ -6,6 +6,7 @@ use obvhs::cwbvh::{builder::build_cwbvh_from_tris, node::CwBvhNode};
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
 
+use super::quadrics::Quadrics;
 use super::triangle::Tri4;
 use super::{Accel, Hit, PreparedRay, Ray, TriRef};
 use crate::scene::Scene;
@@ -174,6 +175,8 @@ pub struct Bvh {
     /// Number of degenerate (zero-area or non-finite) triangles of input meshes left
     /// out (those of collapsed Bezier patch edges are left out too, but not counted).
     pub skipped: usize,
+    /// The exact spheres and disks, whose triangles are not in the tree.
+    pub(super) quadrics: Quadrics,
 }
 
 impl Bvh {
@@ -183,6 +186,9 @@ impl Bvh {
         let mut refs = Vec::new();
         let mut skipped = 0;
         for (s, shape) in scene.shapes.iter().enumerate() {
+            if shape.mesh.quadric.is_some() {
+                continue;
+            }
             for t in 0..shape.mesh.triangle_count() {
                 let [a, b, c] = shape.mesh.triangle(t);
                 let n = (b - a).cross(c - a);
@@ -202,7 +208,10 @@ impl Bvh {
                 });
             }
         }
-        Self::from_triangles(tris, refs, skipped)
+        Bvh {
+            quadrics: Quadrics::build(scene),
+            ..Self::from_triangles(tris, refs, skipped)
+        }
     }
 
     /// The BVH over `tris` (corners as the scene's meshes give them: the blocks keep
@@ -216,6 +225,7 @@ impl Bvh {
                 refs,
                 count: 0,
                 skipped,
+                quadrics: Quadrics::empty(),
             };
         }
         let mut build_time = Default::default();
@@ -243,12 +253,18 @@ impl Bvh {
             refs,
             count: corners.len(),
             skipped,
+            quadrics: Quadrics::empty(),
         }
     }
 
     /// Number of triangles in the BVH.
     pub fn triangle_count(&self) -> usize {
         self.count
+    }
+
+    /// Number of exact spheres and disks.
+    pub fn quadric_count(&self) -> usize {
+        self.quadrics.len()
     }
 
     /// Walks the tree for `r`. `leaf(b, lanes, tmax)` tests the triangles `lanes`
@@ -403,21 +419,21 @@ impl Bvh {
 
 impl Accel for Bvh {
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        if self.nodes.is_empty() {
-            return None;
-        }
-        let r = PreparedRay::new(ray);
-        let (i, t, bary) = self.closest(&r)?;
-        let TriRef { shape, tri } = self.refs[i];
-        Some(Hit { t, shape, tri, bary })
+        let tri = if self.nodes.is_empty() {
+            None
+        } else {
+            let r = PreparedRay::new(ray);
+            self.closest(&r).map(|(i, t, bary)| {
+                let TriRef { shape, tri } = self.refs[i];
+                Hit { t, shape, tri, bary }
+            })
+        };
+        let tmax = tri.map_or(ray.tmax, |h| h.t);
+        self.quadrics.closest(ray, tmax).or(tri)
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
-        if self.nodes.is_empty() {
-            return false;
-        }
-        let r = PreparedRay::new(ray);
-        self.any_hit(&r)
+        (!self.nodes.is_empty() && self.any_hit(&PreparedRay::new(ray))) || self.quadrics.any(ray)
     }
 }
 

@@ -11,11 +11,13 @@
 //! to a block, and tested four at a time with the watertight test of Woop, Benthin &
 //! Wald (2013), as in pbrt-v4 and Embree: a ray passing exactly through an edge or a
 //! vertex shared by triangles hits at least one of them, so rays never leak through
-//! a closed mesh ([`triangle`]).
+//! a closed mesh ([`triangle`]). Spheres and disks are not in the tree as triangles:
+//! they are met exactly, through a small tree of their own ([`quadrics`]).
 
 use glam::{Vec2, Vec3, Vec3A, Vec4};
 
 mod bvh;
+mod quadrics;
 #[cfg(test)]
 mod tests;
 mod triangle;

@@ -697,3 +697,67 @@ fn a_ray_from_a_point_of_a_triangle_does_not_hit_it_at_t_0() {
     let ray = Ray::new(Vec3::new(0.25, 0.5, 1e-3), -Vec3::Z);
     assert!(bvh.intersect(&ray).is_some_and(|h| (h.t - 1e-3).abs() < 1e-9));
 }
+
+#[test]
+fn spheres_and_disks_are_met_exactly_among_triangles() {
+    use crate::geometry::shapes;
+    use crate::testutil::{scene, square};
+    // A floor, a sphere of radius 0.5 resting on it, a disk facing up beside it, and
+    // a square in front of part of the sphere.
+    let mut disk = shapes::disk();
+    disk.transform(&glam::Mat4::from_scale_rotation_translation(
+        Vec3::splat(0.3),
+        glam::Quat::IDENTITY,
+        Vec3::new(2.0, 0.0, 0.2),
+    ));
+    let s = scene(
+        vec![
+            (square(-3.0, 3.0, -3.0, 3.0, 0.0, false), Vec3::splat(0.5)),
+            (shapes::sphere(Vec3::new(0.0, 0.0, 0.5), 0.5), Vec3::splat(0.5)),
+            (disk, Vec3::splat(0.5)),
+            (square(-0.2, 0.2, -2.2, -1.8, 0.5, false), Vec3::splat(0.5)),
+        ],
+        Vec::new(),
+        &[],
+    );
+    let bvh = Bvh::build(&s);
+    assert_eq!((bvh.quadric_count(), bvh.triangle_count()), (2, 4));
+    let down = |x: f32, y: f32| Ray::new(Vec3::new(x, y, 5.0), Vec3::NEG_Z);
+    // Straight down onto the sphere: its top at 1, not a facet below it.
+    let h = bvh.intersect(&down(0.0, 0.0)).unwrap();
+    assert_eq!(h.shape, 1);
+    assert!((h.t - 4.0).abs() < 1e-5);
+    // Off centre by 0.3: the sphere at 0.5 + 0.4.
+    let h = bvh.intersect(&down(0.3, 0.0)).unwrap();
+    assert!((h.t - (5.0 - 0.9)).abs() < 1e-5, "t {}", h.t);
+    // Just outside its silhouette: the floor.
+    assert_eq!(bvh.intersect(&down(0.501, 0.0)).unwrap().shape, 0);
+    // Inside the silhouette of the 64-gon's true circle, where facets miss.
+    let h = bvh.intersect(&down(0.4995, 0.0)).unwrap();
+    assert_eq!(h.shape, 1);
+    // The disk at 0.2, within its radius 0.3 but past its facets' corners.
+    let h = bvh
+        .intersect(&down(
+            2.0 + 0.2995 * std::f32::consts::FRAC_1_SQRT_2,
+            0.2995 * std::f32::consts::FRAC_1_SQRT_2,
+        ))
+        .unwrap();
+    assert_eq!((h.shape, (h.t - 4.8).abs() < 1e-5), (2, true));
+    assert_eq!(bvh.intersect(&down(2.301, 0.0)).unwrap().shape, 0);
+    // Sideways, above the square (at z 0.5) and through it at the sphere's edge.
+    let side = Ray::new(Vec3::new(0.0, -5.0, 0.55), Vec3::Y);
+    assert_eq!(bvh.intersect(&side).unwrap().shape, 1);
+    let h = bvh.intersect(&Ray::new(Vec3::new(0.0, -2.0, 0.45), Vec3::Y));
+    assert!(h.is_some_and(|h| h.shape == 1 && (h.t - (2.0 - (0.25f32 - 0.0025).sqrt())).abs() < 1e-4));
+    // Occlusion: segments that end before the sphere are free.
+    let mut seg = down(0.0, 0.0);
+    seg.tmax = 3.9;
+    assert!(!bvh.occluded(&seg));
+    seg.tmax = 4.1;
+    assert!(bvh.occluded(&seg));
+    // From inside the sphere: its far side.
+    let inside = Ray::new(Vec3::new(0.0, 0.0, 0.5), Vec3::X);
+    let h = bvh.intersect(&inside).unwrap();
+    assert_eq!(h.shape, 1);
+    assert!((h.t - 0.5).abs() < 1e-5);
+}

@@ -1,12 +1,14 @@
 //! Geometry: triangle meshes with the patches (input polygons or pieces of curved
 //! surfaces) they were made from, the built-in shapes, and bicubic Bezier patches.
 //!
-//! Everything is ray traced as triangles. Each triangle remembers its *patch*: the
-//! input polygon, or the piece of a Bezier patch, that the radiosity pass meshes.
+//! Everything is ray traced as triangles but spheres and disks, which rays meet
+//! exactly ([`quadric`]). Each triangle remembers its *patch*: the input polygon, or
+//! the piece of a Bezier patch, sphere or disk, that the radiosity pass meshes.
 
 pub mod bezier;
 pub mod obj;
 pub mod ply;
+pub mod quadric;
 pub mod shapes;
 mod solid_angle;
 mod text;
@@ -15,6 +17,7 @@ mod trimesh_build;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 
 pub use bezier::BezierPatch;
+pub use quadric::{Quadric, QuadricKind};
 pub use solid_angle::{front_solid_angle, triangle_solid_angle, Subtense};
 
 /// What a radiosity patch is: an input polygon, or a parametric piece of a Bezier patch.
@@ -32,6 +35,41 @@ pub enum Patch {
         /// Parameter range in v.
         v: [f32; 2],
     },
+    /// The piece `u0..u1 x v0..v1` of the mesh's exact surface ([`TriMesh::quadric`]).
+    Quadric {
+        /// Parameter range in u.
+        u: [f32; 2],
+        /// Parameter range in v.
+        v: [f32; 2],
+    },
+}
+
+/// A curved surface given by parameters `(u, v)`: what a Bezier or quadric patch is
+/// a piece of, and what the radiosity mesh places its vertices on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ParamSurface {
+    /// A bicubic Bezier patch.
+    Bezier(BezierPatch),
+    /// A sphere or disk.
+    Quadric(Quadric),
+}
+
+impl ParamSurface {
+    /// Point and partial derivatives `(p, dp/du, dp/dv)` at `(u, v)`.
+    pub fn eval(&self, u: f32, v: f32) -> (Vec3, Vec3, Vec3) {
+        match self {
+            ParamSurface::Bezier(b) => b.eval(u, v),
+            ParamSurface::Quadric(q) => q.eval(u, v),
+        }
+    }
+
+    /// The unit normal at `(u, v)` on the surface's front side.
+    pub fn normal(&self, u: f32, v: f32) -> Vec3 {
+        match self {
+            ParamSurface::Bezier(b) => b.normal(u, v),
+            ParamSurface::Quadric(q) => q.normal(u, v),
+        }
+    }
 }
 
 /// Largest coordinate a mesh may have: beyond it areas and squared distances
@@ -55,6 +93,9 @@ pub struct TriMesh {
     pub patches: Vec<Patch>,
     /// Bezier surfaces that `Patch::Bezier` entries refer to.
     pub bezier: Vec<BezierPatch>,
+    /// The exact surface of a `sphere` or `disk`, which rays meet instead of the
+    /// triangles (these stay as the index of its records: see [`Quadric::triangle_at`]).
+    pub quadric: Option<Quadric>,
 }
 
 impl TriMesh {
@@ -79,13 +120,18 @@ impl TriMesh {
         0.5 * (b - a).cross(c - a).length()
     }
 
-    /// Total surface area.
+    /// Total surface area (of a sphere or disk: the exact surface's).
     pub fn area(&self) -> f32 {
-        (0..self.triangle_count()).map(|t| self.triangle_area(t)).sum()
+        match &self.quadric {
+            Some(q) => q.area(),
+            None => (0..self.triangle_count()).map(|t| self.triangle_area(t)).sum(),
+        }
     }
 
-    /// Appends `other`, renumbering its vertices, patches and Bezier surfaces.
+    /// Appends `other`, renumbering its vertices, patches and Bezier surfaces. Neither
+    /// may have an exact surface ([`Self::quadric`]), which stands for its whole mesh.
     pub fn append(&mut self, other: &TriMesh) {
+        debug_assert!(self.quadric.is_none() && other.quadric.is_none());
         let v0 = self.positions.len() as u32;
         let p0 = self.patches.len() as u32;
         let b0 = self.bezier.len() as u32;
@@ -116,6 +162,7 @@ impl TriMesh {
                 u: *u,
                 v: *v,
             },
+            Patch::Quadric { u, v } => Patch::Quadric { u: *u, v: *v },
         }));
         self.bezier.extend_from_slice(&other.bezier);
     }
@@ -152,6 +199,9 @@ impl TriMesh {
                 *c = m.transform_point3(*c);
             }
         }
+        if let Some(q) = &mut self.quadric {
+            q.transform(m);
+        }
         if Mat3::from_mat4(*m).determinant() < 0.0 {
             self.reverse_winding();
         }
@@ -165,6 +215,9 @@ impl TriMesh {
         }
         for b in &mut self.bezier {
             b.flipped = !b.flipped;
+        }
+        if let Some(q) = &mut self.quadric {
+            q.flipped = !q.flipped;
         }
     }
 

@@ -6,14 +6,18 @@
 
 use std::f32::consts::{PI, TAU};
 
-use glam::{Vec2, Vec3};
+use glam::{Mat4, Vec2, Vec3};
 
-use crate::geometry::{Patch, TriMesh};
+use crate::geometry::{Patch, Quadric, QuadricKind, TriMesh};
 
 /// Segments around the axis of the tessellated `sphere` and `disk`.
 pub const SEGMENTS: u32 = 64;
 /// Rings from pole to pole of the tessellated `sphere`.
 pub const RINGS: u32 = 32;
+/// A sphere's radiosity patches: pieces of this many segments by as many rings.
+const SPHERE_PIECE: u32 = 8;
+/// A disk's radiosity patches: sectors of this many segments.
+const DISK_PIECE: u32 = 16;
 
 /// Mitsuba's `rectangle`: `[-1,1]^2` in the z = 0 plane, normal +z; one patch.
 pub fn rectangle() -> TriMesh {
@@ -36,6 +40,7 @@ pub fn rectangle() -> TriMesh {
         tri_patch: vec![0, 0],
         patches: vec![Patch::Polygon(vec![0, 1, 2, 3])],
         bezier: Vec::new(),
+        quadric: None,
     }
 }
 
@@ -68,15 +73,38 @@ pub fn cube() -> TriMesh {
     m
 }
 
-/// Mitsuba's `sphere`, tessellated finely with smooth normals, normals outward.
+/// Mitsuba's `sphere`: the exact surface ([`Quadric`]), normals outward, over its
+/// tessellation.
 ///
-/// A UV sphere of [`SEGMENTS`] x [`RINGS`] with vertices on the true surface, radial
-/// normals and Mitsuba's parametrisation `u = phi / 2pi`, `v = theta / pi`. Every
-/// quad between two rings (planar: a symmetric trapezoid) and every triangle at a
-/// pole is its own polygon patch.
+/// The tessellation is a UV sphere of [`SEGMENTS`] x [`RINGS`] with vertices on the
+/// true surface, radial normals and Mitsuba's parametrisation `u = phi / 2pi`,
+/// `v = theta / pi`; rays meet the exact sphere and name the triangle under the hit
+/// ([`Quadric::triangle_at`]). The radiosity patches are pieces of the parameter
+/// square, 8 segments by 8 rings each, meshed on the exact surface.
 pub fn sphere(center: Vec3, radius: f32) -> TriMesh {
     let (ns, nr) = (SEGMENTS, RINGS);
-    let mut m = TriMesh::default();
+    let mut m = TriMesh {
+        quadric: Some(Quadric::new(
+            QuadricKind::Sphere,
+            Mat4::from_translation(center) * Mat4::from_scale(Vec3::splat(radius)),
+        )),
+        ..TriMesh::default()
+    };
+    let (pu, pv) = (ns / SPHERE_PIECE, nr / SPHERE_PIECE);
+    for pi in 0..pv {
+        for pj in 0..pu {
+            let f = |k: u32, n: u32| {
+                [
+                    (k * SPHERE_PIECE) as f32 / n as f32,
+                    ((k + 1) * SPHERE_PIECE) as f32 / n as f32,
+                ]
+            };
+            m.patches.push(Patch::Quadric {
+                u: f(pj, ns),
+                v: f(pi, nr),
+            });
+        }
+    }
     for i in 0..=nr {
         let theta = PI * i as f32 / nr as f32;
         let (st, ct) = theta.sin_cos();
@@ -102,36 +130,54 @@ pub fn sphere(center: Vec3, radius: f32) -> TriMesh {
             // a (theta, phi), b (theta+, phi), c (theta+, phi+), d (theta, phi+):
             // d_theta x d_phi points outward.
             let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
-            let patch = m.patches.len() as u32;
+            let patch = (i / SPHERE_PIECE) * pu + j / SPHERE_PIECE;
             if i == 0 {
                 m.indices.push([a, b, c]);
                 m.tri_patch.push(patch);
-                m.patches.push(Patch::Polygon(vec![a, b, c]));
             } else if i == nr - 1 {
                 m.indices.push([a, c, d]);
                 m.tri_patch.push(patch);
-                m.patches.push(Patch::Polygon(vec![a, c, d]));
             } else {
                 m.indices.push([a, b, c]);
                 m.indices.push([a, c, d]);
                 m.tri_patch.extend([patch; 2]);
-                m.patches.push(Patch::Polygon(vec![a, b, c, d]));
             }
         }
     }
     m
 }
 
-/// Mitsuba's `disk`: unit disk in the z = 0 plane, normal +z.
-///
-/// A fan of [`SEGMENTS`] triangles around the centre, each its own patch; the rim is
-/// pushed out slightly so that the polygon's area is exactly pi (emitted power of a
-/// disk light matches Mitsuba's). Mitsuba's parametrisation: `u = r`, `v = phi / 2pi`.
-pub fn disk() -> TriMesh {
+/// How far out the tessellated disk's rim lies: its polygon then has the unit
+/// disk's area, pi.
+pub fn disk_rim() -> f32 {
     let n = SEGMENTS;
     let polygon_area = 0.5 * n as f32 * (TAU / n as f32).sin();
-    let rim = (PI / polygon_area).sqrt();
-    let mut m = TriMesh::default();
+    (PI / polygon_area).sqrt()
+}
+
+/// Mitsuba's `disk`: the exact unit disk in the z = 0 plane ([`Quadric`]), normal
+/// +z, over its tessellation.
+///
+/// The tessellation is a fan of [`SEGMENTS`] triangles around the centre, the rim
+/// pushed out slightly so that the polygon's area is exactly pi. Mitsuba's
+/// parametrisation: `u = r`, `v = phi / 2pi`. The radiosity patches are four
+/// quarter disks, meshed on the exact surface.
+pub fn disk() -> TriMesh {
+    let n = SEGMENTS;
+    let rim = disk_rim();
+    let mut m = TriMesh {
+        quadric: Some(Quadric::new(QuadricKind::Disk, Mat4::IDENTITY)),
+        ..TriMesh::default()
+    };
+    for k in 0..n / DISK_PIECE {
+        m.patches.push(Patch::Quadric {
+            u: [0.0, 1.0],
+            v: [
+                (k * DISK_PIECE) as f32 / n as f32,
+                ((k + 1) * DISK_PIECE) as f32 / n as f32,
+            ],
+        });
+    }
     m.positions.push(Vec3::ZERO);
     m.normals.push(Vec3::Z);
     m.uvs.push(Vec2::ZERO);
@@ -146,8 +192,7 @@ pub fn disk() -> TriMesh {
         let a = 1 + j;
         let b = 1 + (j + 1) % n;
         m.indices.push([0, a, b]);
-        m.tri_patch.push(j);
-        m.patches.push(Patch::Polygon(vec![0, a, b]));
+        m.tri_patch.push(j / DISK_PIECE);
     }
     m
 }
@@ -177,12 +222,26 @@ mod tests {
     }
 
     /// Each triangle's corners are among its patch's polygon's corners.
+    /// (Of a sphere or disk: its corners' parameters lie in its piece's, but for the
+    /// disk's centre, which lies in every sector.)
     fn assert_patches_cover(m: &TriMesh) {
         for (t, tri) in m.indices.iter().enumerate() {
-            let Patch::Polygon(poly) = &m.patches[m.tri_patch[t] as usize] else {
-                panic!("not a polygon");
-            };
-            assert!(tri.iter().all(|i| poly.contains(i)));
+            match &m.patches[m.tri_patch[t] as usize] {
+                Patch::Polygon(poly) => assert!(tri.iter().all(|i| poly.contains(i))),
+                Patch::Quadric { u, v } => {
+                    for &i in tri {
+                        let uv = m.uvs[i as usize];
+                        let inside = |x: f32, r: [f32; 2]| x >= r[0] - 1e-6 && x <= r[1] + 1e-6;
+                        assert!(inside(uv.x, *u), "triangle {t}");
+                        // (The disk's seam at v = 0 is also v = 1.)
+                        assert!(
+                            uv.x == 0.0 || inside(uv.y, *v) || inside(uv.y + 1.0, *v),
+                            "triangle {t}"
+                        );
+                    }
+                }
+                p => panic!("unexpected patch {p:?}"),
+            }
         }
     }
 
@@ -266,8 +325,8 @@ mod tests {
         assert_consistent(&m);
         assert_patches_cover(&m);
         assert_eq!(m.uvs.len(), m.positions.len());
-        // 2 pole rows of triangles, the rest quads.
-        assert_eq!(m.patches.len(), (SEGMENTS * RINGS) as usize);
+        // Pieces of 8 x 8 quads; 2 pole rows of triangles, the rest quads.
+        assert_eq!(m.patches.len(), (SEGMENTS * RINGS / 64) as usize);
         assert_eq!(m.triangle_count(), (2 * SEGMENTS * (RINGS - 1)) as usize);
     }
 

@@ -233,12 +233,26 @@ pub fn scene_fingerprint(scene: &Scene) -> u64 {
                     h.u32(*surface);
                     u.iter().chain(v).for_each(|&x| h.f32(x));
                 }
+                Patch::Quadric { u, v } => {
+                    h.u8(2);
+                    u.iter().chain(v).for_each(|&x| h.f32(x));
+                }
             }
         }
         h.count(m.bezier.len());
         for b in &m.bezier {
             b.ctrl.iter().for_each(|&c| h.vec3(c));
             h.bool(b.flipped);
+        }
+        // (Only for meshes with an exact surface, so that the fingerprints of all
+        // other scenes, and the solution files made for them, stay as they were.)
+        if let Some(q) = &m.quadric {
+            h.u8(u8::from(q.kind == crate::geometry::QuadricKind::Sphere));
+            let w = q.to_world();
+            [w.x_axis, w.y_axis, w.z_axis, w.w_axis]
+                .iter()
+                .for_each(|c| h.vec3(c.truncate()));
+            h.bool(q.flipped);
         }
         h.u32(shape.bsdf);
         match shape.emitter {

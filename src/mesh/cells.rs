@@ -84,14 +84,35 @@ impl RadiosityMesh {
                         grid.interp(s, t).apply(field)
                     })
                 };
+                // A curved cell's corner polygon is a chord of it, smaller than the
+                // surface it stands for (a quarter disk's cells of two segments lose
+                // 10%): its light is scaled up by the cell's true area over the
+                // polygon's (the area by 3 x 3 midpoints of the surface's Jacobian).
+                let curved = matches!(grid.domain, Domain::Curved { .. });
+                let weight = if curved && !tri {
+                    let (ds, dt) = (corners[1].0 - corners[0].0, corners[3].1 - corners[0].1);
+                    let surface = cell_mean(3, false, |a, b| {
+                        let (s, t) = at(a, b);
+                        Vec3::splat(grid.jacobian(s, t))
+                    })
+                    .x * (ds * dt).abs();
+                    let chord = 0.5 * (poly[2] - poly[0]).cross(poly[3] - poly[1]).length();
+                    if chord > 0.0 && surface.is_finite() {
+                        surface / chord
+                    } else {
+                        1.0
+                    }
+                } else {
+                    1.0
+                };
                 out.push(ShootCell {
                     corners: poly,
                     len: corners.len() as u8,
                     p: pos,
                     n,
                     value,
-                    weight: 1.0,
-                    flat: !matches!(grid.domain, Domain::Bezier { .. }),
+                    weight,
+                    flat: !curved,
                 });
             };
             match grid.domain {

@@ -15,7 +15,7 @@
 use glam::{Vec2, Vec3};
 
 use crate::accel::Hit;
-use crate::geometry::{BezierPatch, Patch};
+use crate::geometry::{ParamSurface, Patch};
 use crate::scene::{Light, Rgb, Scene};
 
 mod cells;
@@ -35,10 +35,10 @@ pub enum Domain {
     /// A (planar) quadrilateral, parameterised bilinearly: corner 0 at (0,0),
     /// 1 at (1,0), 2 at (1,1), 3 at (0,1).
     Quad([Vec3; 4]),
-    /// The piece `u x v` of a Bezier surface.
-    Bezier {
+    /// The piece `u x v` of a curved surface (Bezier, sphere, disk).
+    Curved {
         /// The surface.
-        surface: BezierPatch,
+        surface: ParamSurface,
         /// Parameter range in u.
         u: [f32; 2],
         /// Parameter range in v.
@@ -217,12 +217,20 @@ fn patch_domains(mesh: &crate::geometry::TriMesh, patch: &Patch) -> Vec<Domain> 
             }
         }
         Patch::Bezier { surface, u, v } => {
-            vec![Domain::Bezier {
-                surface: mesh.bezier[*surface as usize],
+            vec![Domain::Curved {
+                surface: ParamSurface::Bezier(mesh.bezier[*surface as usize]),
                 u: *u,
                 v: *v,
             }]
         }
+        Patch::Quadric { u, v } => match mesh.quadric {
+            Some(q) => vec![Domain::Curved {
+                surface: ParamSurface::Quadric(q),
+                u: *u,
+                v: *v,
+            }],
+            None => vec![],
+        },
     }
 }
 
@@ -252,6 +260,11 @@ fn cluster_triangles(mesh: &crate::geometry::TriMesh, members: &[u32]) -> Vec<[V
 }
 
 /// Subdivisions for a length: at least 1, at most 256.
+/// Most the normal may turn across an element of a curved surface (radians; 15
+/// degrees: a sphere's pieces of 45 x 45 degrees get 3 x 3 elements, unless that
+/// makes them shorter than a quarter of the mesh size).
+const MAX_BEND: f32 = 0.2618;
+
 fn divisions(len: f32, size: f32) -> u32 {
     if !(len > 0.0) || !(size > 0.0) {
         return 1;
@@ -292,12 +305,10 @@ impl Grid {
                 let p = (*a * (1.0 - s) + *b * s) * (1.0 - t) + (*d * (1.0 - s) + *c * s) * t;
                 (p, quad_normal([*a, *b, *c, *d]))
             }
-            Domain::Bezier { surface, u, v } => {
+            Domain::Curved { surface, u, v } => {
                 let uu = u[0] + (u[1] - u[0]) * s;
                 let vv = v[0] + (v[1] - v[0]) * t;
-                let (p, _, _) = surface.eval(uu, vv);
-                let n = surface.normal(uu, vv);
-                (p, if surface.flipped { -n } else { n })
+                (surface.eval(uu, vv).0, surface.normal(uu, vv))
             }
             // A lattice has no parameterisation; its vertices are placed by position.
             Domain::Lattice(_) => (Vec3::ZERO, Vec3::Z),
@@ -313,9 +324,9 @@ impl Grid {
                 let dt = (*d - *a) * (1.0 - s) + (*c - *b) * s;
                 ds.cross(dt).length()
             }
-            Domain::Bezier { surface, u, v } => {
+            Domain::Curved { surface, u, v } => {
                 let (_, du, dv) = surface.eval(u[0] + (u[1] - u[0]) * s, v[0] + (v[1] - v[0]) * t);
-                du.cross(dv).length() * (u[1] - u[0]) * (v[1] - v[0])
+                du.cross(dv).length() * ((u[1] - u[0]) * (v[1] - v[0])).abs()
             }
             Domain::Lattice(_) => 0.0,
         }
@@ -667,7 +678,15 @@ impl RadiosityMesh {
             Domain::Lattice(l) => return l.interp(grid.first_vertex, p),
             Domain::Tri(t) => barycentric(*t, p),
             Domain::Quad(q) => inverse_bilinear(*q, p),
-            Domain::Bezier { u, v, .. } => {
+            Domain::Curved {
+                surface: ParamSurface::Quadric(q),
+                u,
+                v,
+            } => {
+                let uv = q.uv_of(p);
+                Vec2::new((uv.x - u[0]) / (u[1] - u[0]), (uv.y - v[0]) / (v[1] - v[0]))
+            }
+            Domain::Curved { u, v, .. } => {
                 let mesh = &scene.shapes[hit.shape as usize].mesh;
                 let [a, b, c] = mesh.indices[hit.tri as usize].map(|i| mesh.uvs[i as usize]);
                 let uv = a * (1.0 - hit.bary.x - hit.bary.y) + b * hit.bary.x + c * hit.bary.y;
@@ -727,7 +746,7 @@ impl RadiosityMesh {
                     let lines = |n: u32| -> Vec<u32> {
                         match (outline, &g.domain) {
                             (false, _) => (0..=n).collect(),
-                            (true, Domain::Bezier { .. }) if n >= 2 => vec![0, n / 2, n],
+                            (true, Domain::Curved { .. }) if n >= 2 => vec![0, n / 2, n],
                             (true, _) => vec![0, n],
                         }
                     };
@@ -775,7 +794,7 @@ fn grid_size(domain: &Domain, size: f32) -> (u32, u32) {
             divisions((*b - *a).length().max((*c - *d).length()), size),
             divisions((*d - *a).length().max((*c - *b).length()), size),
         ),
-        Domain::Bezier { surface, u, v } => {
+        Domain::Curved { surface, u, v } => {
             // Polyline lengths along the two parameter directions.
             let at = |s: f32, t: f32| surface.eval(u[0] + (u[1] - u[0]) * s, v[0] + (v[1] - v[0]) * t).0;
             let len = |f: &dyn Fn(f32) -> Vec3| {
@@ -789,7 +808,35 @@ fn grid_size(domain: &Domain, size: f32) -> (u32, u32) {
                 lu = lu.max(len(&|s| at(s, w)));
                 lv = lv.max(len(&|t| at(w, t)));
             }
-            (divisions(lu, size), divisions(lv, size))
+            // How far the normal turns along the two directions: Gouraud shading of
+            // light that varies with the normal (a small sphere under a lamp) needs
+            // elements that bend no more than MAX_BEND, whatever their size.
+            let normal = |s: f32, t: f32| surface.normal(u[0] + (u[1] - u[0]) * s, v[0] + (v[1] - v[0]) * t);
+            let turn = |f: &dyn Fn(f32) -> Vec3| {
+                (0..8)
+                    .map(|k| {
+                        f(k as f32 / 8.0)
+                            .dot(f((k + 1) as f32 / 8.0))
+                            .clamp(-1.0, 1.0)
+                            .acos()
+                    })
+                    .sum::<f32>()
+            };
+            let (mut bu, mut bv): (f32, f32) = (0.0, 0.0);
+            for w in [0.25, 0.5, 0.75] {
+                bu = bu.max(turn(&|s| normal(s, w)));
+                bv = bv.max(turn(&|t| normal(w, t)));
+            }
+            // (But no element shorter than a quarter of the mesh size: a small
+            // curved object, a teapot's spout, keeps as few vertices as its area asks.)
+            let bent = |b: f32, l: f32| {
+                let most = (4.0 * l / size).floor().clamp(1.0, 16.0);
+                (b / MAX_BEND).ceil().clamp(1.0, most) as u32
+            };
+            (
+                divisions(lu, size).max(bent(bu, lu)),
+                divisions(lv, size).max(bent(bv, lv)),
+            )
         }
     }
 }

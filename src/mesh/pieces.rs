@@ -2,7 +2,7 @@
 //! interpolation weights at any point of them: where photons leave a radiant patch
 //! from, and where a light shot's projection samples a receiving patch.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use super::{barycentric, Domain, Interp, RadiosityMesh};
 use crate::geometry::{cuts_for, triangle_pieces};
@@ -46,6 +46,31 @@ impl RadiosityMesh {
                 })
                 .collect(),
         }
+    }
+
+    /// For a piece of a curved surface (a Bezier patch, sphere or disk), whose corners
+    /// are a chord of it: the surface point over point `x` of the piece and the unit
+    /// normal there (on the patch's side), at the parameters `x`'s barycentrics give.
+    /// `None` on a flat patch, where `x` is on the surface already. Rays must leave a
+    /// curved surface from here: from the chord, which lies inside a convex surface,
+    /// they would meet the surface itself.
+    pub fn surface_at(&self, e: &Piece, x: Vec3) -> Option<(Vec3, Vec3)> {
+        let t = e.verts?;
+        let g = self.patches[e.patch as usize].grids.iter().find(|g| {
+            matches!(g.domain, Domain::Curved { .. })
+                && t[0] >= g.first_vertex
+                && t[0] - g.first_vertex < (g.n + 1) * (g.m + 1)
+        })?;
+        let st = |v: u32| {
+            let k = v - g.first_vertex;
+            Vec2::new(
+                (k % (g.n + 1)) as f32 / g.n as f32,
+                (k / (g.n + 1)) as f32 / g.m as f32,
+            )
+        };
+        let b = barycentric(e.corners, x);
+        let st = st(t[0]) * (1.0 - b.x - b.y) + st(t[1]) * b.x + st(t[2]) * b.y;
+        Some(g.eval(st.x.clamp(0.0, 1.0), st.y.clamp(0.0, 1.0)))
     }
 
     /// The interpolation weights at point `x` of piece `e` (see [`Self::pieces`]).

@@ -129,12 +129,8 @@ impl<'a> Tracer<'a> {
                 let area = 0.5 * n.length();
                 let n = n.normalize_or(Vec3::Z);
                 // A curved patch's piece is a chord of its surface: photons leave from
-                // the surface the rays see, not from inside a closed object.
-                let (x_out, n_out) = if self.curved(e.patch) {
-                    self.onto_surface(e, x, n)
-                } else {
-                    (x, n)
-                };
+                // the surface, not from inside a closed object.
+                let (x_out, n_out) = self.mesh.surface_at(e, x).unwrap_or((x, n));
                 let prob = table.probability(k);
                 let w = self.mesh.weights_on(e, x);
                 let b_unshot = w.apply(self.unshot);
@@ -176,46 +172,6 @@ impl<'a> Tracer<'a> {
             );
         }
         (out, rays)
-    }
-
-    /// Whether patch `p` is curved (a Bezier piece): its elements are chords.
-    fn curved(&self, p: u32) -> bool {
-        self.mesh.patches[p as usize]
-            .grids
-            .iter()
-            .any(|g| matches!(g.domain, crate::mesh::Domain::Bezier { .. }))
-    }
-
-    /// The point of the patch's surface (as the rays see it) nearest to `x` along the
-    /// piece's normal `n`, within the piece's size, and the surface's normal there on
-    /// `n`'s side; `(x, n)` when no such point is found. On a convex part of a closed
-    /// curved object a point of an element's chord lies inside it, and a photon from
-    /// there would light the object's inside (the paper room's teapot: interior
-    /// vertices at 2-8 against 0).
-    fn onto_surface(&self, e: &Piece, x: Vec3, n: Vec3) -> (Vec3, Vec3) {
-        let c = e.corners;
-        let reach = (c[1] - c[0])
-            .length()
-            .max((c[2] - c[1]).length())
-            .max((c[0] - c[2]).length());
-        let shape = self.mesh.patches[e.patch as usize].shape;
-        let mut best: Option<(f32, Vec3, Vec3)> = None;
-        for dir in [n, -n] {
-            let ray = Ray {
-                origin: x,
-                dir,
-                tmin: 0.0,
-                tmax: reach,
-            };
-            if let Some(hit) = self.accel.intersect(&ray) {
-                if hit.shape == shape && best.is_none_or(|b| hit.t < b.0) {
-                    let sp = SurfacePoint::new(self.scene, &ray, &hit);
-                    let ng = if sp.ng.dot(n) >= 0.0 { sp.ng } else { -sp.ng };
-                    best = Some((hit.t, sp.p, ng));
-                }
-            }
-        }
-        best.map_or((x, n), |(_, p, ng)| (p, ng))
     }
 
     #[allow(clippy::too_many_arguments)]

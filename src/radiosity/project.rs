@@ -27,8 +27,9 @@ use rayon::prelude::*;
 use super::point_light_at;
 use crate::accel::Accel;
 use crate::emitters::SampledLight;
+use crate::geometry::ParamSurface;
 use crate::interaction::shadow_ray;
-use crate::mesh::{point_in_polygon, RadiosityMesh};
+use crate::mesh::{point_in_polygon, Domain, RadiosityMesh};
 use crate::sampling::{derive, stratum, Stream};
 use crate::scene::{mean, Rgb};
 
@@ -80,6 +81,15 @@ pub fn project(
             rho * e
         }
     };
+    let exact = patch.grids.iter().any(|g| {
+        matches!(
+            g.domain,
+            Domain::Curved {
+                surface: ParamSurface::Quadric(_),
+                ..
+            }
+        )
+    });
     for (i, e) in mesh.pieces(p).iter().enumerate() {
         let c = e.corners;
         let centre = (c[0] + c[1] + c[2]) / 3.0;
@@ -112,10 +122,23 @@ pub fn project(
         // A piece whose vertices are all dark may still hold light between them (a
         // spot's beam edge bulging past an element's edge): its centre and the
         // middles of its edges tell.
+        // On a sphere or disk light is taken on the exact surface, which the rays
+        // meet: the piece is a chord of it, inside it and in its shadow. (A Bezier
+        // piece keeps its chord: light taken on the exact surface measured worse on
+        // the paper room's view b, FLIP 0.0468 against 0.0424, though better on view
+        // a, 0.0377 against 0.0397.)
+        let mut at = |x: Vec3| {
+            let (x, n) = if exact {
+                mesh.surface_at(e, x).unwrap_or((x, n))
+            } else {
+                (x, n)
+            };
+            at(x, n)
+        };
         let mixed = if hi > 0.0 {
             lo < MIXED * hi || {
                 let guess = mean(ws[3].apply(point));
-                (mean(at(centre, n)) - guess).abs() > OFF * hi
+                (mean(at(centre)) - guess).abs() > OFF * hi
             }
         } else {
             [
@@ -125,7 +148,7 @@ pub fn project(
                 (c[2] + c[0]) * 0.5,
             ]
             .iter()
-            .any(|&x| at(x, n).max_element() > 0.0)
+            .any(|&x| at(x).max_element() > 0.0)
         };
         if !mixed {
             continue;
@@ -134,7 +157,7 @@ pub fn project(
         for j in 0..POINTS {
             let x = point_in_polygon(&c, stratum(seed, (i as u32) << 7, j, POINTS));
             let w = mesh.weights_on(e, x);
-            let b = at(x, n);
+            let b = at(x);
             for k in 0..4 {
                 let wk = w.weights[k];
                 if wk > 0.0 {

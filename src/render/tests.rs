@@ -376,3 +376,81 @@ fn the_gather_keeps_each_source_to_one_route() {
         }
     }
 }
+
+/// A sphere under a point light renders as the closed form `rho / pi * I cos / d^2`
+/// of the true sphere: every pixel well inside its silhouette within 1%, and the
+/// whole image (silhouette pixels included) within 1%.
+#[test]
+fn a_sphere_renders_as_the_closed_form_of_the_true_sphere() {
+    use crate::geometry::shapes;
+    let (r, rho, i0) = (1.0f32, 0.6f32, 10.0f32);
+    let light = Vec3::new(0.0, 3.0, 3.0);
+    let mut s = crate::testutil::scene(
+        vec![(shapes::sphere(Vec3::ZERO, r), Vec3::splat(rho))],
+        vec![crate::scene::Light::Point {
+            position: light,
+            intensity: Vec3::splat(i0),
+        }],
+        &[],
+    );
+    s.sensors.push(crate::testutil::looking(
+        Vec3::new(0.0, 0.0, 4.0),
+        Vec3::ZERO,
+        40.0,
+        48,
+        48,
+    ));
+    let bvh = Bvh::build(&s);
+    let mut st = settings(Method::Direct);
+    st.spp = 64;
+    let img = draw(&s, &bvh, &st, None).image;
+    // The closed form at film position (x, y), from the quadratic in world space.
+    let cam = crate::camera::Camera::new(&s.sensors[0], 48, 48);
+    let at = |x: f32, y: f32| -> Option<f32> {
+        let ray = cam.ray(x, y);
+        let b = ray.origin.dot(ray.dir);
+        let disc = b * b - (ray.origin.length_squared() - r * r);
+        if disc < 0.0 {
+            return None;
+        }
+        let p = ray.origin + ray.dir * (-b - disc.sqrt());
+        let to = light - p;
+        let cos = (p / r).dot(to.normalize()).max(0.0);
+        Some(rho / std::f32::consts::PI * i0 * cos / to.length_squared())
+    };
+    let (mut want_sum, mut got_sum, mut inner) = (0.0, 0.0, 0);
+    for y in 0..48 {
+        for x in 0..48 {
+            let sub: Vec<Option<f32>> = (0..16)
+                .map(|k| {
+                    at(
+                        x as f32 + (k % 4) as f32 / 4.0 + 0.125,
+                        y as f32 + (k / 4) as f32 / 4.0 + 0.125,
+                    )
+                })
+                .collect();
+            let want = sub.iter().map(|v| v.unwrap_or(0.0)).sum::<f32>() / 16.0;
+            let got = img.pixels[y * 48 + x].x;
+            want_sum += want;
+            got_sum += got;
+            // Well inside and well lit: the pixels around it on the sphere too, and
+            // far from the terminator.
+            let (fx, fy) = (x as f32, y as f32);
+            let clear = [(-1.0, -1.0), (2.0, -1.0), (-1.0, 2.0), (2.0, 2.0)]
+                .iter()
+                .all(|&(dx, dy)| at(fx + dx, fy + dy).is_some_and(|v| v > 0.5 * want));
+            if clear && want > 0.05 {
+                inner += 1;
+                assert!(
+                    (got / want - 1.0).abs() < 0.01,
+                    "pixel ({x}, {y}): {got} vs {want}"
+                );
+            }
+        }
+    }
+    assert!(inner > 300, "{inner} inner pixels");
+    assert!(
+        (got_sum / want_sum - 1.0).abs() < 0.01,
+        "image {got_sum} vs {want_sum}"
+    );
+}

@@ -86,24 +86,30 @@ impl Loader {
             if det == 0.0 || !det.is_finite() {
                 return Err(obj.err_param("to_world", "is singular (it flattens the shape)"));
             }
-            if ty == "sphere" {
-                let (x, y, z) = (l.x_axis, l.y_axis, l.z_axis);
-                let tol = 1e-4 * x.length();
-                let uniform = (x.length() - y.length()).abs() <= tol
-                    && (x.length() - z.length()).abs() <= tol
-                    && x.dot(y).abs() <= tol * x.length()
-                    && x.dot(z).abs() <= tol * x.length()
-                    && y.dot(z).abs() <= tol * x.length();
-                if !uniform {
-                    self.warn(
-                        s,
-                        c,
-                        "sphere with a non-uniform to_world: radtrace renders an ellipsoid, \
-                         Mitsuba a sphere",
-                    );
-                }
+            let ellipsoid = mesh.quadric.filter(|q| {
+                let mut q = *q;
+                q.transform(&m);
+                q.kind == crate::geometry::QuadricKind::Sphere && !q.is_similarity(1e-4)
+            });
+            if let Some(q) = ellipsoid {
+                // Mitsuba keeps a sphere a sphere: the centre moved, the radius scaled by
+                // the map's scale along x.
+                let centre = m.transform_point3(q.to_world().transform_point3(Vec3::ZERO));
+                let radius = m
+                    .transform_vector3(q.to_world().transform_vector3(Vec3::X))
+                    .length();
+                self.warn(
+                    s,
+                    c,
+                    format!(
+                        "sphere with a non-uniform to_world: rendered, as Mitsuba does, as the \
+                         sphere of radius {radius} (the scale along x) at {centre}"
+                    ),
+                );
+                mesh = shapes::sphere(centre, radius);
+            } else {
+                mesh.transform(&m);
             }
-            mesh.transform(&m);
         }
         if obj.boolean("flip_normals", false)? {
             mesh.flip_normals();

@@ -574,6 +574,39 @@ fn rough_and_unsupported_bsdfs_warn() {
 // ------------------------------------------------------------- shapes
 
 #[test]
+fn spheres_and_disks_are_exact_and_a_stretched_sphere_stays_a_sphere_as_in_mitsuba() {
+    let l = ok(&[
+        r#"<shape type="sphere"><transform name="to_world"><scale value="0.5"/><rotate z="1" angle="30"/><translate x="1"/></transform></shape>"#,
+        r#"<shape type="sphere"><float name="radius" value="2"/><transform name="to_world"><scale x="0.5" y="1" z="3"/><translate y="4"/></transform></shape>"#,
+        r#"<shape type="disk"><transform name="to_world"><scale x="2" y="0.5"/></transform></shape>"#,
+    ]);
+    let sh = &l.scene.shapes;
+    let q = sh[0].mesh.quadric.expect("an exact sphere");
+    assert!((q.area() - std::f32::consts::PI).abs() < 1e-5);
+    let (p, n) = q.project(Vec3::new(3.0, 0.0, 0.0));
+    assert!((p - Vec3::new(1.5, 0.0, 0.0)).length() < 1e-5 && (n - Vec3::X).length() < 1e-5);
+    // Mitsuba: the radius times the scale along x, about the moved centre.
+    assert!(
+        has_warning(&l, 4, "radius 1 (the scale along x)"),
+        "{:?}",
+        l.warnings
+    );
+    let q = sh[1].mesh.quadric.expect("an exact sphere");
+    assert!(q.is_similarity(1e-5));
+    let (p, _) = q.project(Vec3::new(0.0, 14.0, 0.0));
+    assert!((p - Vec3::new(0.0, 5.0, 0.0)).length() < 1e-5, "{p}");
+    // A disk may be stretched into an ellipse.
+    let q = sh[2].mesh.quadric.expect("an exact disk");
+    assert!((q.area() - std::f32::consts::PI).abs() < 1e-5);
+    assert!(q
+        .intersect(Vec3::new(1.9, 0.0, 1.0), Vec3::NEG_Z, 0.0, 2.0)
+        .is_some());
+    assert!(q
+        .intersect(Vec3::new(0.0, 0.6, 1.0), Vec3::NEG_Z, 0.0, 2.0)
+        .is_none());
+}
+
+#[test]
 fn shapes_with_transforms_and_flip() {
     let l = ok(&[
         r#"<shape type="rectangle"><transform name="to_world"><scale value="2"/><translate z="1"/></transform></shape>"#,

@@ -1,0 +1,112 @@
+//! The scene's exact spheres and disks ([`Quadric`]), met by rays in closed form
+//! instead of through their triangles. Their boxes are kept in a binary BVH of their
+//! own (obvhs's PLOC build and traversal); a ray is tested against it after the
+//! triangles, up to the triangles' closest hit.
+
+use glam::Vec3A;
+use obvhs::aabb::Aabb;
+use obvhs::bvh2::{builder::build_bvh2, Bvh2};
+use obvhs::ray::{Ray as BvhRay, RayHit};
+use obvhs::BvhBuildParams;
+
+use super::{Hit, Ray};
+use crate::geometry::Quadric;
+use crate::scene::Scene;
+
+/// The exact surfaces of a scene, with their shape indices.
+pub(super) struct Quadrics {
+    /// In the BVH's primitive order: the shape and its surface.
+    items: Vec<(u32, Quadric)>,
+    bvh: Option<Bvh2>,
+}
+
+impl Quadrics {
+    /// The exact surfaces of every shape that has one.
+    pub(super) fn build(scene: &Scene) -> Self {
+        let items: Vec<(u32, Quadric)> = scene
+            .shapes
+            .iter()
+            .enumerate()
+            .filter_map(|(s, shape)| shape.mesh.quadric.map(|q| (s as u32, q)))
+            .filter(|(_, q)| {
+                let (lo, hi) = q.bounds();
+                lo.is_finite() && hi.is_finite()
+            })
+            .collect();
+        if items.is_empty() {
+            return Quadrics { items, bvh: None };
+        }
+        let boxes: Vec<Aabb> = items
+            .iter()
+            .map(|(_, q)| {
+                // Padded: a disk's box is flat, and a slab test may miss a flat box.
+                let (lo, hi) = q.bounds();
+                let pad = 1e-4 * (hi - lo).length() + 1e-6 * (1.0 + lo.abs().max(hi.abs()).max_element());
+                Aabb::new((lo - pad).into(), (hi + pad).into())
+            })
+            .collect();
+        let bvh = build_bvh2(&boxes, BvhBuildParams::medium_build(), &mut Default::default());
+        let items = bvh.primitive_indices.iter().map(|&i| items[i as usize]).collect();
+        Quadrics {
+            items,
+            bvh: Some(bvh),
+        }
+    }
+
+    /// None.
+    pub(super) fn empty() -> Self {
+        Quadrics {
+            items: Vec::new(),
+            bvh: None,
+        }
+    }
+
+    /// Number of exact surfaces.
+    pub(super) fn len(&self) -> usize {
+        self.items.len()
+    }
+
+    fn bvh_ray(ray: &Ray, tmax: f32) -> BvhRay {
+        BvhRay::new(
+            Vec3A::from(ray.origin),
+            Vec3A::from(ray.dir),
+            ray.tmin.max(0.0),
+            tmax,
+        )
+    }
+
+    /// The closest hit of `ray` nearer than `tmax`.
+    pub(super) fn closest(&self, ray: &Ray, tmax: f32) -> Option<Hit> {
+        let bvh = self.bvh.as_ref()?;
+        let mut best = None;
+        let mut hit = RayHit::none();
+        bvh.ray_traverse(Self::bvh_ray(ray, tmax), &mut hit, |r, i| {
+            let (shape, q) = &self.items[i];
+            match q.intersect(ray.origin, ray.dir, ray.tmin, r.tmax) {
+                Some((t, uv)) => {
+                    let (tri, bary) = q.triangle_at(uv);
+                    best = Some(Hit {
+                        t,
+                        shape: *shape,
+                        tri,
+                        bary,
+                    });
+                    t
+                }
+                None => f32::INFINITY,
+            }
+        });
+        best
+    }
+
+    /// Whether `ray` meets any exact surface.
+    pub(super) fn any(&self, ray: &Ray) -> bool {
+        let Some(bvh) = &self.bvh else { return false };
+        !bvh.ray_traverse_miss(Self::bvh_ray(ray, ray.tmax), |r, i| {
+            match self.items[i].1.intersect(ray.origin, ray.dir, ray.tmin, r.tmax) {
+                Some((t, _)) => t,
+                None => f32::INFINITY,
+            }
+        })
+    }
+}
