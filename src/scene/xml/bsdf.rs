@@ -263,13 +263,24 @@ impl Loader {
         i
     }
 
-    pub(super) fn default_bsdf(&mut self) -> u32 {
-        if let Some(i) = self.default_bsdf {
+    /// The material of a shape that names none: Mitsuba's default, a diffuse of
+    /// reflectance 0.5, or, on an area emitter (`emitter`), a black one (Mitsuba 3
+    /// gives an emitting shape without a BSDF reflectance 0). One of each, shared.
+    pub(super) fn default_bsdf(&mut self, emitter: bool) -> u32 {
+        let k = usize::from(emitter);
+        if let Some(i) = self.default_bsdf[k] {
             return i;
         }
         let i = self.scene.bsdfs.len() as u32;
-        self.scene.bsdfs.push(Bsdf::default());
-        self.default_bsdf = Some(i);
+        let mut b = Bsdf::default();
+        if emitter {
+            b.name = "default-emitter".into();
+            b.kind = BsdfKind::Diffuse {
+                reflectance: Vec3::ZERO,
+            };
+        }
+        self.scene.bsdfs.push(b);
+        self.default_bsdf[k] = Some(i);
         i
     }
 }

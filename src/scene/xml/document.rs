@@ -77,7 +77,7 @@ pub(super) struct Loader {
     pub(super) scene: Scene,
     pub(super) ids: HashMap<String, (Target, String)>,
     pub(super) bsdf_index: HashMap<String, u32>,
-    pub(super) default_bsdf: Option<u32>,
+    pub(super) default_bsdf: [Option<u32>; 2],
     include_stack: Vec<PathBuf>,
 }
 
@@ -111,7 +111,7 @@ impl Loader {
             },
             ids: HashMap::new(),
             bsdf_index: HashMap::new(),
-            default_bsdf: None,
+            default_bsdf: [None; 2],
             include_stack: vec![path.canonicalize().unwrap_or(path.to_path_buf())],
         }
     }

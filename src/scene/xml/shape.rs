@@ -167,7 +167,7 @@ impl Loader {
 
         let bsdf = match bsdf {
             Some(b) => b,
-            None => self.default_bsdf(),
+            None => self.default_bsdf(emitter.is_some()),
         };
         let light = match emitter {
             None => None,

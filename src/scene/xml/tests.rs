@@ -349,10 +349,17 @@ fn area_emitter_links_shape_and_light() {
         }
     );
     assert!(matches!(l.scene.lights[1], Light::Point { .. }));
-    // Both shapes share one default BSDF.
-    assert_eq!(l.scene.shapes[0].bsdf, l.scene.shapes[1].bsdf);
-    assert_eq!(l.scene.bsdfs.len(), 1);
-    assert_eq!(l.scene.bsdfs[0], Bsdf::default());
+    // Neither names a BSDF: the lamp gets Mitsuba's black default for emitters, the
+    // cube the diffuse 0.5.
+    let kind = |s: usize| &l.scene.bsdfs[l.scene.shapes[s].bsdf as usize].kind;
+    assert_eq!(
+        *kind(0),
+        BsdfKind::Diffuse {
+            reflectance: Vec3::ZERO
+        }
+    );
+    assert_eq!(*kind(1), Bsdf::default().kind);
+    assert_eq!(l.scene.bsdfs.len(), 2);
 }
 
 #[test]
