@@ -17,7 +17,7 @@ mod trimesh_build;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 
 pub use bezier::BezierPatch;
-pub use quadric::{Quadric, QuadricKind};
+pub use quadric::{Param, Quadric, QuadricKind};
 pub use solid_angle::{front_solid_angle, triangle_solid_angle, Subtense};
 
 /// What a radiosity patch is: an input polygon, or a parametric piece of a Bezier patch.
@@ -35,8 +35,11 @@ pub enum Patch {
         /// Parameter range in v.
         v: [f32; 2],
     },
-    /// The piece `u0..u1 x v0..v1` of the mesh's exact surface ([`TriMesh::quadric`]).
+    /// The piece `u0..u1 x v0..v1` of face `face` of the mesh's exact surface
+    /// ([`TriMesh::quadric`]).
     Quadric {
+        /// The face (see [`quadric`]).
+        face: u8,
         /// Parameter range in u.
         u: [f32; 2],
         /// Parameter range in v.
@@ -50,8 +53,8 @@ pub enum Patch {
 pub enum ParamSurface {
     /// A bicubic Bezier patch.
     Bezier(BezierPatch),
-    /// A sphere or disk.
-    Quadric(Quadric),
+    /// A face of a sphere or disk.
+    Quadric(Quadric, u8),
 }
 
 impl ParamSurface {
@@ -59,7 +62,7 @@ impl ParamSurface {
     pub fn eval(&self, u: f32, v: f32) -> (Vec3, Vec3, Vec3) {
         match self {
             ParamSurface::Bezier(b) => b.eval(u, v),
-            ParamSurface::Quadric(q) => q.eval(u, v),
+            ParamSurface::Quadric(q, f) => q.eval(*f, u, v),
         }
     }
 
@@ -67,7 +70,7 @@ impl ParamSurface {
     pub fn normal(&self, u: f32, v: f32) -> Vec3 {
         match self {
             ParamSurface::Bezier(b) => b.normal(u, v),
-            ParamSurface::Quadric(q) => q.normal(u, v),
+            ParamSurface::Quadric(q, f) => q.normal(*f, u, v),
         }
     }
 }
@@ -162,7 +165,11 @@ impl TriMesh {
                 u: *u,
                 v: *v,
             },
-            Patch::Quadric { u, v } => Patch::Quadric { u: *u, v: *v },
+            Patch::Quadric { face, u, v } => Patch::Quadric {
+                face: *face,
+                u: *u,
+                v: *v,
+            },
         }));
         self.bezier.extend_from_slice(&other.bezier);
     }

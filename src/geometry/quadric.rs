@@ -1,5 +1,5 @@
 //! Mitsuba's `sphere` and `disk` as exact surfaces: ray intersection in closed form,
-//! the true normal, Mitsuba's parametrisation, and uniform sampling by area.
+//! the true normal, a parametrisation for meshing, and uniform sampling by area.
 //!
 //! A [`Quadric`] is the unit sphere or the unit disk (z = 0, normal +z) of object
 //! space under an affine `to_world` (a sphere's is a similarity; a disk's may be any
@@ -8,23 +8,122 @@
 //! one. Normals are mapped by the inverse transpose, which keeps their side under
 //! any map, mirrors included.
 //!
-//! The shape's triangle mesh ([`super::shapes`]) stays: it is what the shape's
-//! records are indexed by (a hit names a triangle with barycentrics,
-//! [`Quadric::triangle_at`]), but no ray ever meets its facets.
+//! The surface is parameterised without poles or a centre where elements would
+//! crowd: a sphere as the six faces of a cube, each mapped equi-angularly onto it
+//! (`(u, v)` in `[0,1]^2` per face; elements differ in area by at most 1.4x), a disk
+//! by Shirley and Chiu's concentric map of the square (which keeps areas). The
+//! radiosity patches are pieces of these squares ([`super::shapes`]), and so is the
+//! shape's triangle mesh, which stays as what the shape's records are indexed by (a
+//! hit names a triangle with barycentrics, [`Quadric::triangle_at`]); no ray ever
+//! meets its facets.
 
-use std::f64::consts::{PI, TAU};
+use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
 use glam::{DMat4, DVec3, Mat3, Mat4, Vec2, Vec3};
 
-use super::shapes::{disk_rim, RINGS, SEGMENTS};
+use super::shapes::{QUADRIC_CELLS, QUADRIC_PIECES};
 
 /// Which unit shape a [`Quadric`] maps.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum QuadricKind {
-    /// The unit sphere; `u = phi / 2pi`, `v = theta / pi` (theta from +z).
+    /// The unit sphere: six faces of a cube, mapped equi-angularly.
     Sphere,
-    /// The unit disk in z = 0, normal +z; `u = r`, `v = phi / 2pi`.
+    /// The unit disk in z = 0, normal +z: one face, the concentric map of the square.
     Disk,
+}
+
+impl QuadricKind {
+    /// Number of faces (parameter squares).
+    pub fn faces(self) -> u8 {
+        match self {
+            QuadricKind::Sphere => 6,
+            QuadricKind::Disk => 1,
+        }
+    }
+}
+
+/// Surface parameters: a face and `(u, v)` in `[0,1]^2` on it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Param {
+    /// The face (0 for a disk).
+    pub face: u8,
+    /// The position on the face.
+    pub uv: Vec2,
+}
+
+/// The cube's faces: outward axis `n` and in-face axes `a`, `b` with `a x b = n`, so
+/// that `d/du x d/dv` points outward.
+const FACES: [(DVec3, DVec3, DVec3); 6] = [
+    (DVec3::X, DVec3::Y, DVec3::Z),
+    (DVec3::NEG_X, DVec3::Z, DVec3::Y),
+    (DVec3::Y, DVec3::Z, DVec3::X),
+    (DVec3::NEG_Y, DVec3::X, DVec3::Z),
+    (DVec3::Z, DVec3::X, DVec3::Y),
+    (DVec3::NEG_Z, DVec3::Y, DVec3::X),
+];
+
+/// The unit-sphere point at `(u, v)` of `face`: the cube face's point at
+/// `tan(pi/4 (2u - 1))`, `tan(pi/4 (2v - 1))`, normalised.
+fn sphere_point(face: u8, u: f64, v: f64) -> DVec3 {
+    let (n, a, b) = FACES[usize::from(face.min(5))];
+    let x = (FRAC_PI_4 * (2.0 * u - 1.0)).tan();
+    let y = (FRAC_PI_4 * (2.0 * v - 1.0)).tan();
+    (n + a * x + b * y).normalize()
+}
+
+/// The face and parameters of the unit-sphere point `l`.
+fn sphere_param(l: DVec3) -> Param {
+    let face = (0..6)
+        .max_by(|&x, &y| l.dot(FACES[x].0).total_cmp(&l.dot(FACES[y].0)))
+        .unwrap_or(0);
+    let (n, a, b) = FACES[face];
+    let d = l.dot(n).max(1e-300);
+    let to = |x: f64| (((x / d).atan() / FRAC_PI_4 + 1.0) * 0.5).clamp(0.0, 1.0) as f32;
+    Param {
+        face: face as u8,
+        uv: Vec2::new(to(l.dot(a)), to(l.dot(b))),
+    }
+}
+
+/// Shirley and Chiu's concentric map of `(u, v)` in `[0,1]^2` onto the unit disk.
+fn disk_point(u: f64, v: f64) -> DVec3 {
+    let (a, b) = (2.0 * u - 1.0, 2.0 * v - 1.0);
+    if a == 0.0 && b == 0.0 {
+        return DVec3::ZERO;
+    }
+    let (r, phi) = if a.abs() > b.abs() {
+        (a, FRAC_PI_4 * (b / a))
+    } else {
+        (b, FRAC_PI_2 - FRAC_PI_4 * (a / b))
+    };
+    DVec3::new(r * phi.cos(), r * phi.sin(), 0.0)
+}
+
+/// The inverse of [`disk_point`] (`l` in the plane z = 0, within the unit disk).
+fn disk_param(l: DVec3) -> Param {
+    let r = l.truncate().length().min(1.0);
+    let t = l.y.atan2(l.x);
+    let (a, b) = if r == 0.0 {
+        (0.0, 0.0)
+    } else if (-FRAC_PI_4..=FRAC_PI_4).contains(&t) {
+        // a = r > |b|: phi = pi/4 b / a.
+        (r, r * t / FRAC_PI_4)
+    } else if (FRAC_PI_4..=3.0 * FRAC_PI_4).contains(&t) {
+        // b = r: phi = pi/2 - pi/4 a / b.
+        (r * (FRAC_PI_2 - t) / FRAC_PI_4, r)
+    } else if (-3.0 * FRAC_PI_4..=-FRAC_PI_4).contains(&t) {
+        // b = -r: the point is the map's (r, phi) turned by pi.
+        (-r * (FRAC_PI_2 - (t + PI)) / FRAC_PI_4, -r)
+    } else {
+        // a = -r.
+        let p = if t > 0.0 { t - PI } else { t + PI };
+        (-r, -r * p / FRAC_PI_4)
+    };
+    let to = |x: f64| ((x + 1.0) * 0.5).clamp(0.0, 1.0) as f32;
+    Param {
+        face: 0,
+        uv: Vec2::new(to(a), to(b)),
+    }
 }
 
 /// An exact sphere or disk in world space.
@@ -86,8 +185,8 @@ impl Quadric {
     }
 
     /// The first hit of the segment `origin + t dir`, `t` in `(max(tmin, 0), tmax]`:
-    /// its `t` and the surface parameters `(u, v)` there.
-    pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<(f32, Vec2)> {
+    /// its `t` and the surface parameters there.
+    pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<(f32, Param)> {
         let o = self.local_map().transform_point3(origin.as_dvec3());
         let d = self.local_map().transform_vector3(dir.as_dvec3());
         let lo = f64::from(tmin.max(0.0));
@@ -112,7 +211,7 @@ impl Quadric {
                     std::mem::swap(&mut t0, &mut t1);
                 }
                 let t = [t0, t1].into_iter().find(|&t| ok(t))?;
-                Some((t as f32, sphere_uv((o + d * t).normalize())))
+                Some((t as f32, sphere_param((o + d * t).normalize())))
             }
             QuadricKind::Disk => {
                 if d.z == 0.0 {
@@ -124,71 +223,53 @@ impl Quadric {
                 }
                 let x = o.x + d.x * t;
                 let y = o.y + d.y * t;
-                let r2 = x * x + y * y;
-                (r2 <= 1.0).then(|| (t as f32, Vec2::new(r2.sqrt() as f32, angle(y, x))))
+                (x * x + y * y <= 1.0).then(|| (t as f32, disk_param(DVec3::new(x, y, 0.0))))
             }
         }
     }
 
-    /// The parameters `(u, v)` of the surface point nearest to `p` (`p` on or near
-    /// the surface).
-    pub fn uv_of(&self, p: Vec3) -> Vec2 {
+    /// The parameters of the surface point nearest to `p` (`p` on or near the
+    /// surface).
+    pub fn param_of(&self, p: Vec3) -> Param {
         let l = self.local_map().transform_point3(p.as_dvec3());
         match self.kind {
-            QuadricKind::Sphere => sphere_uv(l.normalize_or(DVec3::Z)),
-            QuadricKind::Disk => Vec2::new(l.truncate().length().min(1.0) as f32, angle(l.y, l.x)),
+            QuadricKind::Sphere => sphere_param(l.normalize_or(DVec3::Z)),
+            QuadricKind::Disk => disk_param(DVec3::new(l.x, l.y, 0.0)),
         }
     }
 
-    /// The object-space point at `(u, v)`.
-    fn local(&self, u: f32, v: f32) -> DVec3 {
-        let (u, v) = (f64::from(u), f64::from(v));
+    /// The object-space point at `(u, v)` of `face`.
+    fn local(&self, face: u8, u: f64, v: f64) -> DVec3 {
         match self.kind {
-            QuadricKind::Sphere => {
-                let (st, ct) = (PI * v).sin_cos();
-                let (sp, cp) = (TAU * u).sin_cos();
-                DVec3::new(st * cp, st * sp, ct)
-            }
-            QuadricKind::Disk => {
-                let (sp, cp) = (TAU * v).sin_cos();
-                DVec3::new(u * cp, u * sp, 0.0)
-            }
+            QuadricKind::Sphere => sphere_point(face, u, v),
+            QuadricKind::Disk => disk_point(u, v),
         }
     }
 
-    /// Point and partial derivatives `(p, dp/du, dp/dv)` at `(u, v)`.
-    pub fn eval(&self, u: f32, v: f32) -> (Vec3, Vec3, Vec3) {
-        let l = self.local(u, v);
-        let (du, dv) = match self.kind {
-            QuadricKind::Sphere => {
-                let (st, ct) = (PI * f64::from(v)).sin_cos();
-                let (sp, cp) = (TAU * f64::from(u)).sin_cos();
-                (
-                    DVec3::new(-st * sp, st * cp, 0.0) * TAU,
-                    DVec3::new(ct * cp, ct * sp, -st) * PI,
-                )
-            }
-            QuadricKind::Disk => {
-                let (sp, cp) = (TAU * f64::from(v)).sin_cos();
-                (
-                    DVec3::new(cp, sp, 0.0),
-                    DVec3::new(-sp, cp, 0.0) * (TAU * f64::from(u)),
-                )
-            }
+    /// Point and partial derivatives `(p, dp/du, dp/dv)` at `(u, v)` of `face`
+    /// (derivatives by central differences in f64, one-sided at the square's edges).
+    pub fn eval(&self, face: u8, u: f32, v: f32) -> (Vec3, Vec3, Vec3) {
+        let (u, v) = (f64::from(u), f64::from(v));
+        let h = 1e-6;
+        let diff = |f: &dyn Fn(f64) -> DVec3, x: f64| {
+            let (a, b) = ((x - h).max(0.0), (x + h).min(1.0));
+            (f(b) - f(a)) / (b - a)
         };
+        let du = diff(&|x| self.local(face, x, v), u);
+        let dv = diff(&|y| self.local(face, u, y), v);
         let m = self.world();
         (
-            m.transform_point3(l).as_vec3(),
+            m.transform_point3(self.local(face, u, v)).as_vec3(),
             m.transform_vector3(du).as_vec3(),
             m.transform_vector3(dv).as_vec3(),
         )
     }
 
-    /// The unit normal at `(u, v)`: outward (a disk: along its +z), inward when
-    /// [`flipped`](Self::flipped).
-    pub fn normal(&self, u: f32, v: f32) -> Vec3 {
+    /// The unit normal at `(u, v)` of `face`: outward (a disk: along its +z),
+    /// inward when [`flipped`](Self::flipped).
+    pub fn normal(&self, face: u8, u: f32, v: f32) -> Vec3 {
         let n = match self.kind {
-            QuadricKind::Sphere => self.local(u, v),
+            QuadricKind::Sphere => self.local(face, f64::from(u), f64::from(v)),
             QuadricKind::Disk => DVec3::Z,
         };
         self.world_normal(n)
@@ -242,16 +323,22 @@ impl Quadric {
     /// similarity (a disk: any affine map), with its unit normal. The map is
     /// continuous, so compact cells of `s` are compact pieces of the surface.
     pub fn sample(&self, s: Vec2) -> (Vec3, Vec3) {
-        let (u, v) = match self.kind {
+        let l = match self.kind {
             // Archimedes: z uniform in [-1, 1] is uniform by area.
-            QuadricKind::Sphere => (
-                s.y,
-                (1.0 - 2.0 * s.x).clamp(-1.0, 1.0).acos() / std::f32::consts::PI,
-            ),
-            QuadricKind::Disk => (s.x.sqrt(), s.y),
+            QuadricKind::Sphere => {
+                let z = (1.0 - 2.0 * f64::from(s.x)).clamp(-1.0, 1.0);
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let (sp, cp) = (2.0 * PI * f64::from(s.y)).sin_cos();
+                DVec3::new(r * cp, r * sp, z)
+            }
+            // The concentric map keeps areas.
+            QuadricKind::Disk => disk_point(f64::from(s.x), f64::from(s.y)),
         };
-        let (p, _, _) = self.eval(u, v);
-        (p, self.normal(u, v))
+        let n = match self.kind {
+            QuadricKind::Sphere => l,
+            QuadricKind::Disk => DVec3::Z,
+        };
+        (self.world().transform_point3(l).as_vec3(), self.world_normal(n))
     }
 
     /// World-space bounds `(min, max)`: the image of the object-space box.
@@ -276,57 +363,29 @@ impl Quadric {
     }
 
     /// The triangle of the shape's tessellation ([`super::shapes::sphere`],
-    /// [`super::shapes::disk`]) that parameters `uv` fall in, with barycentrics of
-    /// its corners 1 and 2 measured in the parameters (so that the tessellation's
-    /// per-vertex `uv`s interpolate back to `uv`, but at the poles and the centre).
-    pub fn triangle_at(&self, uv: Vec2) -> (u32, Vec2) {
-        let cell = |x: f32, n: u32| {
+    /// [`super::shapes::disk`]) that parameters `at` fall in, with barycentrics of
+    /// its corners 1 and 2 measured in the parameters: each face is cut into
+    /// [`QUADRIC_PIECES`]^2 pieces (the radiosity patches), each piece into
+    /// [`QUADRIC_CELLS`]^2 cells, each cell into two triangles `[a, b, c]`,
+    /// `[a, c, d]` (corners `a (0,0)`, `b (1,0)`, `c (1,1)`, `d (0,1)`).
+    pub fn triangle_at(&self, at: Param) -> (u32, Vec2) {
+        let n = QUADRIC_PIECES * QUADRIC_CELLS;
+        let cell = |x: f32| {
             let f = (x * n as f32).clamp(0.0, n as f32);
             let i = (f.floor() as u32).min(n - 1);
             (i, f - i as f32)
         };
-        match self.kind {
-            QuadricKind::Sphere => {
-                let (ns, nr) = (SEGMENTS, RINGS);
-                let (i, s) = cell(uv.y, nr);
-                let (j, t) = cell(uv.x, ns);
-                // Triangles before ring i: one per segment in the first ring, two in
-                // the middle ones.
-                let first = if i == 0 { 0 } else { ns + (i - 1) * 2 * ns };
-                if i == 0 {
-                    // [pole, b, c].
-                    (first + j, Vec2::new(s * (1.0 - t), s * t))
-                } else if i == nr - 1 {
-                    // [a, pole, d].
-                    (first + j, Vec2::new(s, (1.0 - s) * t))
-                } else if s >= t {
-                    // [a, b, c].
-                    (first + 2 * j, Vec2::new(s - t, t))
-                } else {
-                    // [a, c, d].
-                    (first + 2 * j + 1, Vec2::new(s, t - s))
-                }
-            }
-            QuadricKind::Disk => {
-                let (j, t) = cell(uv.y, SEGMENTS);
-                // [centre, rim j, rim j+1], the rim a little outside the unit circle.
-                let r = (uv.x / disk_rim()).clamp(0.0, 1.0);
-                (j, Vec2::new(r * (1.0 - t), r * t))
-            }
+        let (i, s) = cell(at.uv.x);
+        let (j, t) = cell(at.uv.y);
+        let (c, m) = (QUADRIC_CELLS, QUADRIC_PIECES);
+        let piece = u32::from(at.face.min(self.kind.faces() - 1)) * m * m + (j / c) * m + i / c;
+        let first = 2 * (piece * c * c + (j % c) * c + i % c);
+        if s >= t {
+            (first, Vec2::new(s - t, t))
+        } else {
+            (first + 1, Vec2::new(s, t - s))
         }
     }
-}
-
-/// The angle of `(x, y)` as a fraction of a turn, in `[0, 1)`.
-fn angle(y: f64, x: f64) -> f32 {
-    let a = y.atan2(x) / TAU;
-    let a = if a < 0.0 { a + 1.0 } else { a };
-    (a as f32).min(1.0 - f32::EPSILON / 2.0)
-}
-
-/// `(u, v)` of the unit-sphere point `l`.
-fn sphere_uv(l: DVec3) -> Vec2 {
-    Vec2::new(angle(l.y, l.x), (l.z.clamp(-1.0, 1.0).acos() / PI) as f32)
 }
 
 #[cfg(test)]

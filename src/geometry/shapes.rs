@@ -10,14 +10,12 @@ use glam::{Mat4, Vec2, Vec3};
 
 use crate::geometry::{Patch, Quadric, QuadricKind, TriMesh};
 
-/// Segments around the axis of the tessellated `sphere` and `disk`.
-pub const SEGMENTS: u32 = 64;
-/// Rings from pole to pole of the tessellated `sphere`.
-pub const RINGS: u32 = 32;
-/// A sphere's radiosity patches: pieces of this many segments by as many rings.
-const SPHERE_PIECE: u32 = 8;
-/// A disk's radiosity patches: sectors of this many segments.
-const DISK_PIECE: u32 = 16;
+/// Pieces along each side of a sphere's cube face or a disk's square: the radiosity
+/// patches (a sphere has 6 x 4, a disk 4).
+pub const QUADRIC_PIECES: u32 = 2;
+/// Cells along each side of a piece in the tessellation (two triangles each): a
+/// sphere has 3072 triangles, a disk 512.
+pub const QUADRIC_CELLS: u32 = 8;
 
 /// Mitsuba's `rectangle`: `[-1,1]^2` in the z = 0 plane, normal +z; one patch.
 pub fn rectangle() -> TriMesh {
@@ -76,125 +74,70 @@ pub fn cube() -> TriMesh {
 /// Mitsuba's `sphere`: the exact surface ([`Quadric`]), normals outward, over its
 /// tessellation.
 ///
-/// The tessellation is a UV sphere of [`SEGMENTS`] x [`RINGS`] with vertices on the
-/// true surface, radial normals and Mitsuba's parametrisation `u = phi / 2pi`,
-/// `v = theta / pi`; rays meet the exact sphere and name the triangle under the hit
-/// ([`Quadric::triangle_at`]). The radiosity patches are pieces of the parameter
-/// square, 8 segments by 8 rings each, meshed on the exact surface.
+/// The radiosity patches are pieces of the six cube faces the surface is
+/// parameterised by (see [`crate::geometry::quadric`]), meshed on the exact surface;
+/// the tessellation cuts each piece into a grid of triangles with vertices on the
+/// surface, radial normals and Mitsuba's `u = phi / 2pi`, `v = theta / pi`. Rays meet
+/// the exact sphere and name the triangle under the hit ([`Quadric::triangle_at`]).
 pub fn sphere(center: Vec3, radius: f32) -> TriMesh {
-    let (ns, nr) = (SEGMENTS, RINGS);
-    let mut m = TriMesh {
-        quadric: Some(Quadric::new(
-            QuadricKind::Sphere,
-            Mat4::from_translation(center) * Mat4::from_scale(Vec3::splat(radius)),
-        )),
-        ..TriMesh::default()
-    };
-    let (pu, pv) = (ns / SPHERE_PIECE, nr / SPHERE_PIECE);
-    for pi in 0..pv {
-        for pj in 0..pu {
-            let f = |k: u32, n: u32| {
-                [
-                    (k * SPHERE_PIECE) as f32 / n as f32,
-                    ((k + 1) * SPHERE_PIECE) as f32 / n as f32,
-                ]
-            };
-            m.patches.push(Patch::Quadric {
-                u: f(pj, ns),
-                v: f(pi, nr),
-            });
-        }
-    }
-    for i in 0..=nr {
-        let theta = PI * i as f32 / nr as f32;
-        let (st, ct) = theta.sin_cos();
-        for j in 0..=ns {
-            let phi = TAU * j as f32 / ns as f32;
-            let (sp, cp) = phi.sin_cos();
-            // Exact poles, so that all the pole's copies coincide.
-            let dir = if i == 0 {
-                Vec3::Z
-            } else if i == nr {
-                Vec3::NEG_Z
-            } else {
-                Vec3::new(st * cp, st * sp, ct)
-            };
-            m.positions.push(center + radius * dir);
-            m.normals.push(dir);
-            m.uvs.push(Vec2::new(j as f32 / ns as f32, i as f32 / nr as f32));
-        }
-    }
-    let at = |i: u32, j: u32| i * (ns + 1) + j;
-    for i in 0..nr {
-        for j in 0..ns {
-            // a (theta, phi), b (theta+, phi), c (theta+, phi+), d (theta, phi+):
-            // d_theta x d_phi points outward.
-            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
-            let patch = (i / SPHERE_PIECE) * pu + j / SPHERE_PIECE;
-            if i == 0 {
-                m.indices.push([a, b, c]);
-                m.tri_patch.push(patch);
-            } else if i == nr - 1 {
-                m.indices.push([a, c, d]);
-                m.tri_patch.push(patch);
-            } else {
-                m.indices.push([a, b, c]);
-                m.indices.push([a, c, d]);
-                m.tri_patch.extend([patch; 2]);
-            }
-        }
-    }
-    m
-}
-
-/// How far out the tessellated disk's rim lies: its polygon then has the unit
-/// disk's area, pi.
-pub fn disk_rim() -> f32 {
-    let n = SEGMENTS;
-    let polygon_area = 0.5 * n as f32 * (TAU / n as f32).sin();
-    (PI / polygon_area).sqrt()
+    quadric_mesh(Quadric::new(
+        QuadricKind::Sphere,
+        Mat4::from_translation(center) * Mat4::from_scale(Vec3::splat(radius)),
+    ))
 }
 
 /// Mitsuba's `disk`: the exact unit disk in the z = 0 plane ([`Quadric`]), normal
-/// +z, over its tessellation.
-///
-/// The tessellation is a fan of [`SEGMENTS`] triangles around the centre, the rim
-/// pushed out slightly so that the polygon's area is exactly pi. Mitsuba's
-/// parametrisation: `u = r`, `v = phi / 2pi`. The radiosity patches are four
-/// quarter disks, meshed on the exact surface.
+/// +z, over its tessellation: as [`sphere`], of one square face (the concentric map),
+/// with Mitsuba's `u = r`, `v = phi / 2pi`.
 pub fn disk() -> TriMesh {
-    let n = SEGMENTS;
-    let rim = disk_rim();
-    let mut m = TriMesh {
-        quadric: Some(Quadric::new(QuadricKind::Disk, Mat4::IDENTITY)),
+    quadric_mesh(Quadric::new(QuadricKind::Disk, Mat4::IDENTITY))
+}
+
+/// The patches and tessellation of `q`, laid out as [`Quadric::triangle_at`] reads
+/// them: face by face, piece by piece (rows along v), cell by cell.
+fn quadric_mesh(q: Quadric) -> TriMesh {
+    let (m, c) = (QUADRIC_PIECES, QUADRIC_CELLS);
+    let mut mesh = TriMesh {
+        quadric: Some(q),
         ..TriMesh::default()
     };
-    for k in 0..n / DISK_PIECE {
-        m.patches.push(Patch::Quadric {
-            u: [0.0, 1.0],
-            v: [
-                (k * DISK_PIECE) as f32 / n as f32,
-                ((k + 1) * DISK_PIECE) as f32 / n as f32,
-            ],
-        });
+    let local = q.to_world().inverse();
+    for face in 0..q.kind.faces() {
+        for pj in 0..m {
+            for pi in 0..m {
+                let range = |k: u32| [k as f32 / m as f32, (k + 1) as f32 / m as f32];
+                let (u, v) = (range(pi), range(pj));
+                let patch = mesh.patches.len() as u32;
+                mesh.patches.push(Patch::Quadric { face, u, v });
+                let base = mesh.positions.len() as u32;
+                for j in 0..=c {
+                    for i in 0..=c {
+                        let uu = u[0] + (u[1] - u[0]) * i as f32 / c as f32;
+                        let vv = v[0] + (v[1] - v[0]) * j as f32 / c as f32;
+                        let (p, _, _) = q.eval(face, uu, vv);
+                        mesh.positions.push(p);
+                        mesh.normals.push(q.normal(face, uu, vv));
+                        let l = local.transform_point3(p);
+                        let phi = l.y.atan2(l.x).rem_euclid(TAU) / TAU;
+                        mesh.uvs.push(match q.kind {
+                            QuadricKind::Sphere => Vec2::new(phi, l.z.clamp(-1.0, 1.0).acos() / PI),
+                            QuadricKind::Disk => Vec2::new(l.truncate().length(), phi),
+                        });
+                    }
+                }
+                let at = |i: u32, j: u32| base + j * (c + 1) + i;
+                for j in 0..c {
+                    for i in 0..c {
+                        let (a, b, cc, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+                        mesh.indices.push([a, b, cc]);
+                        mesh.indices.push([a, cc, d]);
+                        mesh.tri_patch.extend([patch; 2]);
+                    }
+                }
+            }
+        }
     }
-    m.positions.push(Vec3::ZERO);
-    m.normals.push(Vec3::Z);
-    m.uvs.push(Vec2::ZERO);
-    for j in 0..n {
-        let phi = TAU * j as f32 / n as f32;
-        let (sp, cp) = phi.sin_cos();
-        m.positions.push(Vec3::new(rim * cp, rim * sp, 0.0));
-        m.normals.push(Vec3::Z);
-        m.uvs.push(Vec2::new(1.0, j as f32 / n as f32));
-    }
-    for j in 0..n {
-        let a = 1 + j;
-        let b = 1 + (j + 1) % n;
-        m.indices.push([0, a, b]);
-        m.tri_patch.push(j / DISK_PIECE);
-    }
-    m
+    mesh
 }
 
 #[cfg(test)]
@@ -222,20 +165,20 @@ mod tests {
     }
 
     /// Each triangle's corners are among its patch's polygon's corners.
-    /// (Of a sphere or disk: its corners' parameters lie in its piece's, but for the
-    /// disk's centre, which lies in every sector.)
     fn assert_patches_cover(m: &TriMesh) {
         for (t, tri) in m.indices.iter().enumerate() {
             match &m.patches[m.tri_patch[t] as usize] {
                 Patch::Polygon(poly) => assert!(tri.iter().all(|i| poly.contains(i))),
-                Patch::Quadric { u, v } => {
+                Patch::Quadric { face, u, v } => {
+                    // Its corners' parameters lie in its piece's (a corner on the
+                    // face's edge may be named by the next face).
+                    let q = m.quadric.unwrap();
                     for &i in tri {
-                        let uv = m.uvs[i as usize];
-                        let inside = |x: f32, r: [f32; 2]| x >= r[0] - 1e-6 && x <= r[1] + 1e-6;
-                        assert!(inside(uv.x, *u), "triangle {t}");
-                        // (The disk's seam at v = 0 is also v = 1.)
+                        let at = q.param_of(m.positions[i as usize]);
+                        let inside = |x: f32, r: [f32; 2]| x >= r[0] - 1e-4 && x <= r[1] + 1e-4;
+                        let edge = at.face != *face;
                         assert!(
-                            uv.x == 0.0 || inside(uv.y, *v) || inside(uv.y + 1.0, *v),
+                            edge || (inside(at.uv.x, *u) && inside(at.uv.y, *v)),
                             "triangle {t}"
                         );
                     }
@@ -311,7 +254,14 @@ mod tests {
         let m = sphere(c, r);
         m.validate().unwrap();
         let exact = 4.0 * PI * r * r;
-        assert!((m.area() - exact).abs() / exact < 0.01, "area {}", m.area());
+        assert!((m.area() - exact).abs() / exact < 1e-5, "area {}", m.area());
+        // The facets (chords) cover it within 1%, no facet more than 1.5x another.
+        let tess: f32 = (0..m.triangle_count()).map(|t| m.triangle_area(t)).sum();
+        assert!((tess / exact - 1.0).abs() < 0.01, "facets {tess}");
+        let (lo, hi) = (0..m.triangle_count())
+            .map(|t| m.triangle_area(t))
+            .fold((f32::INFINITY, 0.0f32), |(lo, hi), a| (lo.min(a), hi.max(a)));
+        assert!(hi < 1.6 * lo, "facets from {lo} to {hi}");
         for t in 0..m.triangle_count() {
             assert!(m.triangle_area(t) > 0.0, "degenerate triangle {t}");
             let g = geometric_normal(&m, t);
@@ -325,16 +275,17 @@ mod tests {
         assert_consistent(&m);
         assert_patches_cover(&m);
         assert_eq!(m.uvs.len(), m.positions.len());
-        // Pieces of 8 x 8 quads; 2 pole rows of triangles, the rest quads.
-        assert_eq!(m.patches.len(), (SEGMENTS * RINGS / 64) as usize);
-        assert_eq!(m.triangle_count(), (2 * SEGMENTS * (RINGS - 1)) as usize);
+        // Six faces of 2 x 2 pieces of 8 x 8 cells of two triangles.
+        assert_eq!(m.patches.len(), 24);
+        assert_eq!(m.triangle_count(), 24 * 128);
     }
 
     #[test]
     fn disk_area_and_normal() {
         let m = disk();
         m.validate().unwrap();
-        assert!((m.area() - PI).abs() / PI < 0.01, "area {}", m.area());
+        assert!((m.area() - PI).abs() / PI < 1e-6, "area {}", m.area());
+        assert_eq!((m.patches.len(), m.triangle_count()), (4, 512));
         for t in 0..m.triangle_count() {
             let n = geometric_normal(&m, t);
             assert!(n.z > 0.0 && n.x.abs() < 1e-6 && n.y.abs() < 1e-6);

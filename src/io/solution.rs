@@ -233,8 +233,9 @@ pub fn scene_fingerprint(scene: &Scene) -> u64 {
                     h.u32(*surface);
                     u.iter().chain(v).for_each(|&x| h.f32(x));
                 }
-                Patch::Quadric { u, v } => {
+                Patch::Quadric { face, u, v } => {
                     h.u8(2);
+                    h.u8(*face);
                     u.iter().chain(v).for_each(|&x| h.f32(x));
                 }
             }

@@ -223,9 +223,9 @@ fn patch_domains(mesh: &crate::geometry::TriMesh, patch: &Patch) -> Vec<Domain> 
                 v: *v,
             }]
         }
-        Patch::Quadric { u, v } => match mesh.quadric {
+        Patch::Quadric { face, u, v } => match mesh.quadric {
             Some(q) => vec![Domain::Curved {
-                surface: ParamSurface::Quadric(q),
+                surface: ParamSurface::Quadric(q, *face),
                 u: *u,
                 v: *v,
             }],
@@ -679,11 +679,11 @@ impl RadiosityMesh {
             Domain::Tri(t) => barycentric(*t, p),
             Domain::Quad(q) => inverse_bilinear(*q, p),
             Domain::Curved {
-                surface: ParamSurface::Quadric(q),
+                surface: ParamSurface::Quadric(q, _),
                 u,
                 v,
             } => {
-                let uv = q.uv_of(p);
+                let uv = q.param_of(p).uv;
                 Vec2::new((uv.x - u[0]) / (u[1] - u[0]), (uv.y - v[0]) / (v[1] - v[0]))
             }
             Domain::Curved { u, v, .. } => {

@@ -85,7 +85,7 @@ pub fn project(
         matches!(
             g.domain,
             Domain::Curved {
-                surface: ParamSurface::Quadric(_),
+                surface: ParamSurface::Quadric(..),
                 ..
             }
         )

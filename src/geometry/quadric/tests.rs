@@ -3,7 +3,7 @@ use std::f32::consts::PI;
 use glam::{Mat4, Quat, Vec2, Vec3};
 
 use super::*;
-use crate::geometry::shapes;
+use crate::geometry::{shapes, Patch};
 
 fn sphere(c: Vec3, r: f32) -> Quadric {
     shapes::sphere(c, r).quadric.expect("exact sphere")
@@ -25,10 +25,11 @@ fn a_ray_through_a_spheres_centre_meets_it_at_distance_minus_radius() {
     let (c, r) = (Vec3::new(1.0, -2.0, 0.5), 0.75);
     let q = sphere(c, r);
     let o = c + Vec3::new(0.0, 0.0, 5.0);
-    let (t, uv) = q.intersect(o, Vec3::NEG_Z, 0.0, f32::INFINITY).unwrap();
+    let (t, at) = q.intersect(o, Vec3::NEG_Z, 0.0, f32::INFINITY).unwrap();
     assert!((t - (5.0 - r)).abs() < 1e-5, "t {t}");
-    // The north pole: theta 0.
-    assert!(uv.y.abs() < 1e-3, "uv {uv}");
+    // The middle of the cube's +z face.
+    assert_eq!(at.face, 4);
+    assert!((at.uv - Vec2::splat(0.5)).length() < 1e-5, "{at:?}");
     let (p, n) = q.project(o + Vec3::NEG_Z * t);
     assert!((p - (c + Vec3::Z * r)).length() < 1e-5);
     assert!((n - Vec3::Z).length() < 1e-5);
@@ -71,13 +72,13 @@ fn random_rays_meet_a_transformed_sphere_on_its_surface_and_nowhere_before() {
             })
             .flatten();
         match (q.intersect(o, d, 0.0, f32::INFINITY), want) {
-            (Some((t, uv)), Some(w)) => {
+            (Some((t, at)), Some(w)) => {
                 hits += 1;
                 assert!((t as f64 - w).abs() < 1e-4 * (1.0 + w), "t {t} want {w}");
                 let p = o + d * t;
                 assert!(((p - c).length() - r).abs() < 1e-4);
                 // The parameters give back the point.
-                let (e, _, _) = q.eval(uv.x, uv.y);
+                let (e, _, _) = q.eval(at.face, at.uv.x, at.uv.y);
                 assert!((e - p).length() < 1e-3, "{e} {p}");
             }
             (None, None) => misses += 1,
@@ -114,7 +115,7 @@ fn grazing_rays_hit_inside_the_silhouette_and_miss_outside() {
     assert!(d
         .intersect(Vec3::new(-5.0, 0.0, 0.0), Vec3::X, 0.0, f32::INFINITY)
         .is_none());
-    let (t, uv) = d
+    let (t, at) = d
         .intersect(
             Vec3::new(-5.0, 0.0, 1e-3),
             Vec3::new(1.0, 0.0, -2e-4),
@@ -122,7 +123,11 @@ fn grazing_rays_hit_inside_the_silhouette_and_miss_outside() {
             f32::INFINITY,
         )
         .expect("nearly edge on");
-    assert!((t - 5.0).abs() < 1e-3 && uv.x < 1e-3, "t {t} uv {uv}");
+    // Near the centre, the middle of the concentric map's square.
+    assert!(
+        (t - 5.0).abs() < 1e-3 && (at.uv - Vec2::splat(0.5)).length() < 1e-3,
+        "t {t} {at:?}"
+    );
 }
 
 #[test]
@@ -187,33 +192,42 @@ fn an_ellipse_is_hit_within_its_axes_with_its_true_normal_and_area() {
 }
 
 #[test]
-fn the_named_triangle_lies_under_the_hit_and_carries_its_parameters() {
-    let (c, r) = (Vec3::new(0.5, 0.0, -1.0), 2.0);
-    let m = shapes::sphere(c, r);
-    let q = m.quadric.unwrap();
+fn parameters_map_both_ways_and_name_the_triangle_and_patch_under_them() {
     let mut u = rng(11);
-    for _ in 0..500 {
-        let uv = Vec2::new(u(), 0.02 + 0.96 * u());
-        let (tri, b) = q.triangle_at(uv);
-        let [ia, ib, ic] = m.indices[tri as usize].map(|i| i as usize);
-        assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0 + 1e-6, "{b}");
-        let w = [1.0 - b.x - b.y, b.x, b.y];
-        let chord = m.positions[ia] * w[0] + m.positions[ib] * w[1] + m.positions[ic] * w[2];
-        let (p, _, _) = q.eval(uv.x, uv.y);
-        // Within the facets' sag (r (1 - cos(pi / 32)) = 0.0096) and their
-        // parametric distortion.
-        assert!((chord - p).length() < 0.01 * r, "{uv}: {chord} vs {p}");
-        // Off the poles the facet's uvs interpolate back to the hit's.
-        if uv.y > 1.0 / 32.0 && uv.y < 31.0 / 32.0 {
-            let t = m.uvs[ia] * w[0] + m.uvs[ib] * w[1] + m.uvs[ic] * w[2];
-            assert!((t - uv).length() < 1e-4, "{t} vs {uv}");
+    for m in [shapes::sphere(Vec3::new(0.5, 0.0, -1.0), 2.0), shapes::disk()] {
+        let q = m.quadric.unwrap();
+        for _ in 0..2000 {
+            let at = Param {
+                face: (u() * f32::from(q.kind.faces())) as u8,
+                uv: Vec2::new(u(), u()),
+            };
+            let (p, du, dv) = q.eval(at.face, at.uv.x, at.uv.y);
+            // Back to the same parameters (but on a disk's centre, where all meet).
+            let back = q.param_of(p);
+            assert!(
+                back.face == at.face && (back.uv - at.uv).length() < 1e-4,
+                "{at:?} -> {back:?}"
+            );
+            // d/du x d/dv along the front normal.
+            assert!(
+                du.cross(dv).dot(q.normal(at.face, at.uv.x, at.uv.y)) > 0.0,
+                "{at:?}"
+            );
+            // The named triangle: in the patch of the parameters' piece, and its
+            // barycentrics put the point within a cell (1/16 of the square) of it.
+            let (tri, b) = q.triangle_at(at);
+            assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0 + 1e-6, "{b}");
+            let Patch::Quadric { face, u: pu, v: pv } = &m.patches[m.tri_patch[tri as usize] as usize] else {
+                panic!("not a quadric piece");
+            };
+            let within = |x: f32, r: &[f32; 2]| x >= r[0] - 1e-6 && x <= r[1] + 1e-6;
+            assert!(*face == at.face && within(at.uv.x, pu) && within(at.uv.y, pv));
+            let [ia, ib, ic] = m.indices[tri as usize].map(|i| i as usize);
+            let w = [1.0 - b.x - b.y, b.x, b.y];
+            let chord = m.positions[ia] * w[0] + m.positions[ib] * w[1] + m.positions[ic] * w[2];
+            assert!((chord - p).length() < 0.06, "{at:?}: {chord} vs {p}");
         }
     }
-    let d = shapes::disk();
-    let dq = d.quadric.unwrap();
-    let (tri, b) = dq.triangle_at(Vec2::new(0.5, 0.26));
-    assert_eq!(tri, (0.26 * 64.0) as u32);
-    assert!((b.x + b.y - 0.5 / shapes::disk_rim()).abs() < 1e-5);
 }
 
 #[test]
