@@ -53,7 +53,7 @@ pub struct Param {
 
 /// The cube's faces: outward axis `n` and in-face axes `a`, `b` with `a x b = n`, so
 /// that `d/du x d/dv` points outward.
-const FACES: [(DVec3, DVec3, DVec3); 6] = [
+pub(crate) const CUBE_FACES: [(DVec3, DVec3, DVec3); 6] = [
     (DVec3::X, DVec3::Y, DVec3::Z),
     (DVec3::NEG_X, DVec3::Z, DVec3::Y),
     (DVec3::Y, DVec3::Z, DVec3::X),
@@ -65,7 +65,7 @@ const FACES: [(DVec3, DVec3, DVec3); 6] = [
 /// The unit-sphere point at `(u, v)` of `face`: the cube face's point at
 /// `tan(pi/4 (2u - 1))`, `tan(pi/4 (2v - 1))`, normalised.
 fn sphere_point(face: u8, u: f64, v: f64) -> DVec3 {
-    let (n, a, b) = FACES[usize::from(face.min(5))];
+    let (n, a, b) = CUBE_FACES[usize::from(face.min(5))];
     let x = (FRAC_PI_4 * (2.0 * u - 1.0)).tan();
     let y = (FRAC_PI_4 * (2.0 * v - 1.0)).tan();
     (n + a * x + b * y).normalize()
@@ -74,9 +74,9 @@ fn sphere_point(face: u8, u: f64, v: f64) -> DVec3 {
 /// The face and parameters of the unit-sphere point `l`.
 fn sphere_param(l: DVec3) -> Param {
     let face = (0..6)
-        .max_by(|&x, &y| l.dot(FACES[x].0).total_cmp(&l.dot(FACES[y].0)))
+        .max_by(|&x, &y| l.dot(CUBE_FACES[x].0).total_cmp(&l.dot(CUBE_FACES[y].0)))
         .unwrap_or(0);
-    let (n, a, b) = FACES[face];
+    let (n, a, b) = CUBE_FACES[face];
     let d = l.dot(n).max(1e-300);
     let to = |x: f64| (((x / d).atan() / FRAC_PI_4 + 1.0) * 0.5).clamp(0.0, 1.0) as f32;
     Param {

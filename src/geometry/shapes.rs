@@ -8,6 +8,7 @@ use std::f32::consts::{PI, TAU};
 
 use glam::{Mat4, Vec2, Vec3};
 
+use crate::geometry::quadric::CUBE_FACES;
 use crate::geometry::{Patch, Quadric, QuadricKind, TriMesh};
 
 /// Pieces along each side of a sphere's cube face or a disk's square: the radiosity
@@ -45,15 +46,9 @@ pub fn rectangle() -> TriMesh {
 /// Mitsuba's `cube`: `[-1,1]^3`, normals outward; six patches.
 pub fn cube() -> TriMesh {
     // For each face: its outward normal n and two axes u, v with u x v = n, so the
-    // corners -u-v, +u-v, +u+v, -u+v run counter-clockwise seen from outside.
-    let faces = [
-        (Vec3::X, Vec3::Y, Vec3::Z),
-        (Vec3::NEG_X, Vec3::Z, Vec3::Y),
-        (Vec3::Y, Vec3::Z, Vec3::X),
-        (Vec3::NEG_Y, Vec3::X, Vec3::Z),
-        (Vec3::Z, Vec3::X, Vec3::Y),
-        (Vec3::NEG_Z, Vec3::Y, Vec3::X),
-    ];
+    // corners -u-v, +u-v, +u+v, -u+v run counter-clockwise seen from outside (the
+    // faces a sphere is parameterised by).
+    let faces = CUBE_FACES.map(|(n, u, v)| (n.as_vec3(), u.as_vec3(), v.as_vec3()));
     let mut m = TriMesh::default();
     for (f, (n, u, v)) in faces.into_iter().enumerate() {
         let base = m.positions.len() as u32;
