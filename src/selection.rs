@@ -392,6 +392,17 @@ fn source_power(scene: &Scene, sol: &Solution, total: &[Rgb], s: SourceId) -> f6
     }
 }
 
+/// How much a source's unoccluded light may vary over a curved patch before the
+/// gradient criterion ray traces it (see [`judge`]).
+const CURVED_SPREAD: f32 = 0.2;
+
+/// Whether the patch is a piece of a curved surface (its elements chords of it).
+fn curved(mp: &crate::mesh::MeshPatch) -> bool {
+    mp.grids
+        .iter()
+        .any(|g| matches!(g.domain, crate::mesh::Domain::Curved { .. }))
+}
+
 /// Whether a source is a point (point or spot light: one ray, no solid angle).
 fn is_point(scene: &Scene, s: SourceId) -> bool {
     matches!(s, SourceId::Light(l) if !matches!(scene.lights[l as usize], Light::Area { .. }))
@@ -459,6 +470,19 @@ pub fn judge(j: &Judge, p: u32, entry: &ListEntry, tris: &Subtense) -> Criteria 
     }
     c.visibility_spread = if hi >= lo { hi - lo } else { 0.0 };
     c.gradient = c.visibility_spread > settings.gradient_threshold;
+    // On a curved patch (a sphere, a Bezier piece) the source's unoccluded light
+    // follows the turning normal, which the elements' linear interpolation flattens
+    // (a small sphere's top under a lamp comes out 5-8% dark): a source whose
+    // unoccluded light varies by more than CURVED_SPREAD over such a patch passes too.
+    if !c.gradient && curved(mp) {
+        let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
+        for u in &entry.unoccluded {
+            let u = mean(*u);
+            lo = lo.min(u);
+            hi = hi.max(u);
+        }
+        c.gradient = hi > 0.0 && lo < (1.0 - CURVED_SPREAD) * hi;
+    }
 
     // Solid angle: its mean over the patch decides and sets the ray count.
     if point {

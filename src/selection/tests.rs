@@ -296,3 +296,50 @@ fn a_selection_of_the_strongest_sources_keeps_one_route_per_source() {
     // The point light is ray traced somewhere, so the first step differs from the last.
     assert!(full.picks.iter().any(|p| p.source == 0));
 }
+
+/// On a sphere under a point light, fully visible to it, the gradient criterion
+/// still passes the light where its unoccluded light turns with the normal by more
+/// than a fifth over the patch (the mesh flattens that: on a sphere's pieces, a
+/// quarter of a cube face each, it always does), but not on a flat floor lit evenly.
+#[test]
+fn the_gradient_criterion_passes_a_light_whose_falloff_a_curved_patch_flattens() {
+    use crate::geometry::shapes;
+    let rho = Vec3::splat(0.5);
+    let s = scene(
+        vec![
+            (shapes::sphere(v(0.0, 0.0, 0.0), 0.5), rho),
+            (square(3.0, 3.5, -0.25, 0.25, -0.5, false), rho),
+        ],
+        vec![Light::Point {
+            position: v(0.0, 0.0, 6.0),
+            intensity: Vec3::splat(10.0),
+        }],
+        &[],
+    );
+    let bvh = Bvh::build(&s);
+    let sol = solve(&s, &bvh, &solve_settings(0.1, 4), &crate::progress::Silent).unwrap();
+    let sel = select(&s, &sol, Method::Local, &SelectSettings::default(), None).unwrap();
+    let light = SourceId::Light(0);
+    let mut curved = 0;
+    let first = sol.mesh.shape_first_patch[0] as usize;
+    for p in first..first + 24 {
+        let Some((_, c)) = sel.criteria[p].iter().find(|(s, _)| *s == light) else {
+            continue;
+        };
+        let entry = sol.lists[p].iter().find(|e| e.source == light).unwrap();
+        let u: Vec<f32> = entry.unoccluded.iter().map(|u| mean(*u)).collect();
+        let (lo, hi) = u
+            .iter()
+            .fold((f32::INFINITY, 0.0f32), |(a, b), &x| (a.min(x), b.max(x)));
+        if c.visibility_spread > 0.0 || hi <= 0.0 {
+            continue;
+        }
+        // Fully visible: only the falloff decides.
+        assert_eq!(c.gradient, lo < 0.8 * hi, "patch {p}: {lo} .. {hi}");
+        curved += usize::from(c.gradient);
+    }
+    // The four pieces of the face towards the light.
+    assert!(curved >= 4, "{curved} passed");
+    let floor = verdict(&sel, 1, light);
+    assert!(!floor.gradient, "{floor:?}");
+}
