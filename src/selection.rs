@@ -396,11 +396,17 @@ fn source_power(scene: &Scene, sol: &Solution, total: &[Rgb], s: SourceId) -> f6
 /// gradient criterion ray traces it (see [`judge`]).
 const CURVED_SPREAD: f32 = 0.2;
 
-/// Whether the patch is a piece of a curved surface (its elements chords of it).
+/// Whether the patch is a piece of a curved surface (a Bezier patch or a sphere; a
+/// disk is flat).
 fn curved(mp: &crate::mesh::MeshPatch) -> bool {
-    mp.grids
-        .iter()
-        .any(|g| matches!(g.domain, crate::mesh::Domain::Curved { .. }))
+    use crate::geometry::{ParamSurface, QuadricKind};
+    mp.grids.iter().any(|g| match &g.domain {
+        crate::mesh::Domain::Curved { surface, .. } => !matches!(
+            surface,
+            ParamSurface::Quadric(q, _) if q.kind == QuadricKind::Disk
+        ),
+        _ => false,
+    })
 }
 
 /// Whether a source is a point (point or spot light: one ray, no solid angle).
