@@ -84,21 +84,37 @@ impl RadiosityMesh {
                         grid.interp(s, t).apply(field)
                     })
                 };
-                // A curved cell's corner polygon is a chord of it, smaller than the
-                // surface it stands for (a quarter disk's cells of two segments lose
-                // 10%): its light is scaled up by the cell's true area over the
-                // polygon's (the area by 3 x 3 midpoints of the surface's Jacobian).
+                // A curved cell's corner polygon has straight edges where the cell's
+                // are curved (a disk's rim: a quarter disk's cells of two segments
+                // lose 10% of its light). What a cell sends a point at a distance
+                // follows the vector area of its boundary (half the loop integral of
+                // x dx; the surface inside does not matter): its light is scaled by
+                // the true boundary's vector area (8 points an edge, on the surface)
+                // over the polygon's. On a sphere the two nearly agree; the cell's
+                // larger area would overcount it.
                 let curved = matches!(grid.domain, Domain::Curved { .. });
                 let weight = if curved && !tri {
-                    let (ds, dt) = (corners[1].0 - corners[0].0, corners[3].1 - corners[0].1);
-                    let surface = cell_mean(3, false, |a, b| {
-                        let (s, t) = at(a, b);
-                        Vec3::splat(grid.jacobian(s, t))
-                    })
-                    .x * (ds * dt).abs();
-                    let chord = 0.5 * (poly[2] - poly[0]).cross(poly[3] - poly[1]).length();
-                    if chord > 0.0 && surface.is_finite() {
-                        surface / chord
+                    const K: usize = 8;
+                    let mut loop_pts = Vec::with_capacity(4 * K);
+                    for e in 0..4 {
+                        let (a, b) = (corners[e], corners[(e + 1) % 4]);
+                        for k in 0..K {
+                            let f = k as f32 / K as f32;
+                            loop_pts.push(grid.eval(a.0 + (b.0 - a.0) * f, a.1 + (b.1 - a.1) * f).0);
+                        }
+                    }
+                    let vector_area = |pts: &[Vec3]| {
+                        let o = pts[0];
+                        (1..pts.len() - 1)
+                            .map(|k| (pts[k] - o).cross(pts[k + 1] - o))
+                            .sum::<Vec3>()
+                            .length()
+                            * 0.5
+                    };
+                    let chord = vector_area(&poly);
+                    let edge = vector_area(&loop_pts);
+                    if chord > 0.0 && edge.is_finite() {
+                        edge / chord
                     } else {
                         1.0
                     }

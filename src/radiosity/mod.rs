@@ -2,7 +2,8 @@
 //! al. 1988) that keeps the strongest sources apart.
 //!
 //! Light sources shoot first, strongest first; then the patch with the most unshot
-//! power, while one patch holds at least `tolerance` of the emitted power. Every shot
+//! power, while one patch holds at least `tolerance` of the power the lights brought
+//! to reflecting surfaces (or of the emitted power, if less). Every shot
 //! goes from cells on the source to every mesh vertex with an exact form factor per
 //! cell and shadow rays to it (Wallace et al. 1989); a vertex takes as many cells as
 //! the solid angle it sees the source under asks for (`Levels`), so its rays follow
@@ -162,8 +163,12 @@ pub struct SolveStats {
     pub patches: u64,
     /// Power emitted by all light sources (mean of RGB, W).
     pub emitted_power: f64,
-    /// Unshot power left, as a fraction of the emitted power.
+    /// Unshot power left, as a fraction of the reference power.
     pub residual: f64,
+    /// What `residual` is a fraction of: the power the lights brought to reflecting
+    /// surfaces, or the emitted power if less.
+    #[serde(default)]
+    pub reference_power: f64,
     /// Wall seconds.
     pub time_s: f64,
     /// Photons traced in the stochastic part.
@@ -309,9 +314,32 @@ fn solve_inner(
 
     // Then radiant patches, the most unshot power first.
     let mut patch_power: Vec<f64> = (0..s.mesh.patches.len()).map(|p| s.unshot_power(p)).collect();
+    // What the tolerance is a fraction of: the power the lights brought to the
+    // surfaces that reflect (their reflected power over their reflectance), or the
+    // emitted power if less. The same in a closed room; far less under a sky dome,
+    // an emitting sphere that sends most of its power to its own black inside, which
+    // would otherwise leave the whole of the scene's reflected light to the photons.
+    let received: f64 = patch_power
+        .iter()
+        .zip(&s.mesh.patches)
+        .map(|(w, p)| {
+            let rho = f64::from(mean(p.reflectance));
+            if rho > 0.0 {
+                w / rho
+            } else {
+                0.0
+            }
+        })
+        .sum();
+    let reference = if received > 0.0 {
+        emitted.min(received)
+    } else {
+        emitted
+    };
+    s.stats.reference_power = reference;
     loop {
         let total: f64 = patch_power.iter().sum();
-        s.stats.residual = if emitted > 0.0 { total / emitted } else { 0.0 };
+        s.stats.residual = if reference > 0.0 { total / reference } else { 0.0 };
         progress.set(((1.0 - s.stats.residual).clamp(0.0, 1.0) * 1000.0) as u64);
         let (best, best_power) = patch_power
             .iter()
@@ -321,9 +349,9 @@ fn solve_inner(
             .unwrap_or((0, 0.0));
         // `!(>)`: a NaN residual (which valid scenes cannot give) stops too. With
         // photons to carry the rest, deterministic shots go on only while one patch
-        // holds at least `tolerance` of the emitted power.
+        // holds at least `tolerance` of the reference power.
         let out_of_time = budget > 0.0 && start.elapsed().as_secs_f64() > shots_budget;
-        let weak = settings.photons > 0 && !(best_power > settings.tolerance as f64 * emitted);
+        let weak = settings.photons > 0 && !(best_power > settings.tolerance as f64 * reference);
         if !(s.stats.residual > settings.tolerance as f64)
             || s.stats.patch_shots >= settings.max_shots as u64
             || weak

@@ -794,3 +794,42 @@ fn photons_from_a_curved_patch_do_not_light_a_closed_objects_inside() {
     // the shots alone leave the paper room's teapot at 0.016, photons at 0.14.)
     assert!(ratio < 0.6, "inside {ratio:.3} of the outside");
 }
+
+/// Under a sky dome (an emitting sphere, black inside, around a floor and a box)
+/// most of the emitted power lands on the dome itself: the tolerance is a fraction
+/// of the power that reaches the reflecting surfaces instead, so the floor's
+/// reflected light is still shot deterministically, not all left to the photons.
+#[test]
+fn the_tolerance_is_a_fraction_of_the_power_reaching_reflecting_surfaces() {
+    use crate::geometry::shapes;
+    let mut dome = shapes::sphere(Vec3::ZERO, 20.0);
+    dome.flip_normals();
+    let s = scene(
+        vec![
+            (
+                crate::testutil::square(-3.0, 3.0, -3.0, 3.0, 0.0, false),
+                Vec3::splat(0.6),
+            ),
+            (
+                box_outside(v(-0.5, -0.5, 0.0), v(0.5, 0.5, 1.0)).remove(4),
+                Vec3::splat(0.6),
+            ),
+            (dome, Vec3::ZERO),
+        ],
+        Vec::new(),
+        &[(2, Vec3::splat(1.0))],
+    );
+    let bvh = Bvh::build(&s);
+    let mut st = settings(0.5, 16, 10);
+    st.tolerance = 0.01;
+    st.photons = 16;
+    let sol = solve(&s, &bvh, &st, &Silent).unwrap();
+    // The floor (36 m^2 of the dome's 5000) receives about pi x 36 W of the dome's
+    // pi x 5027 W.
+    let (reference, emitted) = (sol.stats.reference_power, sol.stats.emitted_power);
+    assert!(
+        (reference / (PI as f64 * 37.0) - 1.0).abs() < 0.1,
+        "{reference} of {emitted}"
+    );
+    assert!(sol.stats.patch_shots >= 1, "{:?}", sol.stats);
+}
