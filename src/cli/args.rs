@@ -123,8 +123,9 @@ pub struct SolveArgs {
     /// --quality, 64 for good].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub(super) shoot_samples: Option<u32>,
-    /// Deterministic shots stop when the unshot power falls below this fraction of
-    /// the emitted power, or (with photons) when no patch holds this fraction.
+    /// Deterministic shots stop when the unshot power falls below this fraction of the
+    /// power the lights brought to reflecting surfaces (of the emitted power, if
+    /// less), or (with photons) when no patch holds this fraction.
     #[arg(long, default_value_t = 0.01, value_name = "FRACTION")]
     pub(super) solve_tolerance: f32,
     /// Deterministic patch shots at most.

@@ -71,6 +71,9 @@ pub struct SolveFigures {
     pub rays: u64,
     /// Power emitted by the lights.
     pub emitted_power: f64,
+    /// What `residual` and the tolerance are fractions of: the power the lights
+    /// brought to reflecting surfaces, or `emitted_power` if less.
+    pub reference_power: f64,
     /// Unshot fraction left.
     pub residual: f64,
     /// Wall seconds of the solve.
@@ -103,6 +106,7 @@ impl SolveFigures {
             reused_shots: s.reused_shots,
             rays: s.rays,
             emitted_power: s.emitted_power,
+            reference_power: s.reference_power,
             residual: s.residual,
             time_s: s.time_s,
             photons_per_vertex: sol.settings.photons,
