@@ -110,8 +110,8 @@ pub struct SolveArgs {
     /// of those flags given on its own wins.
     #[arg(long, value_enum, default_value_t = Quality::Good)]
     pub(super) quality: Quality,
-    /// Largest radiosity element edge, in scene units [default: the scene's
-    /// bounding-box diagonal / 40].
+    /// Largest radiosity element edge, in scene units [default: the bounding-box
+    /// diagonal / 40 of the surfaces with diffuse reflectance].
     #[arg(long, value_name = "SIZE", allow_negative_numbers = true)]
     pub(super) mesh_size: Option<f32>,
     /// n: sources kept apart, per patch, from the general radiosity (lights are never

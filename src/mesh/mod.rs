@@ -178,11 +178,22 @@ impl Interp {
     }
 }
 
-/// The default element size: 1/40 of the scene's bounding-box diagonal.
+/// The default element size: 1/40 of the bounding-box diagonal of the surfaces that
+/// keep radiosity.
 pub fn default_mesh_size(scene: &Scene) -> f32 {
+    // Over the surfaces that keep radiosity (a sky dome around the scene, an emitting
+    // sphere with no reflectance, would make every element as coarse as its size
+    // asks); over all of them if none does.
+    let reflects = |s: &crate::scene::Shape| {
+        scene
+            .bsdfs
+            .get(s.bsdf as usize)
+            .is_some_and(|b| b.kind.diffuse_albedo().max_element() > 0.0)
+    };
+    let any = scene.shapes.iter().any(reflects);
     let mut lo = Vec3::splat(f32::INFINITY);
     let mut hi = Vec3::splat(f32::NEG_INFINITY);
-    for s in &scene.shapes {
+    for s in scene.shapes.iter().filter(|s| !any || reflects(s)) {
         if let Some((a, b)) = s.mesh.bounds() {
             lo = lo.min(a);
             hi = hi.max(b);
@@ -498,8 +509,12 @@ impl RadiosityMesh {
             mesh.shape_first_patch.push(first_patch);
             let bsdf = &scene.bsdfs[shape.bsdf as usize];
             let reflectance = bsdf.kind.diffuse_albedo();
-            let inert = !(reflectance.max_element() > 0.0) && !emitting.contains(&(si as u32));
-            let size = if inert { f32::INFINITY } else { mesh_size };
+            // A surface without diffuse reflectance keeps no radiosity: one element per
+            // patch. An emitting one (a lamp's black shade, a sky dome) keeps its
+            // patches, which its light is shot from, but needs no finer elements.
+            let black = !(reflectance.max_element() > 0.0);
+            let inert = black && !emitting.contains(&(si as u32));
+            let size = if black { f32::INFINITY } else { mesh_size };
             let groups = lattice::clusters(&shape.mesh, mesh_size, inert);
             mesh.patch_map.push(groups.of_patch.clone());
             for members in &groups.members {
