@@ -328,6 +328,37 @@ fn a_mirror_keeps_no_radiosity() {
 }
 
 #[test]
+fn a_black_sky_dome_neither_sets_the_mesh_size_nor_gets_fine_elements() {
+    // A 4 x 4 floor and a sphere of radius 50 around it, emitting, black (as Mitsuba
+    // makes an emitter without a BSDF).
+    let mut dome = crate::geometry::shapes::sphere(Vec3::ZERO, 50.0);
+    dome.flip_normals();
+    let floor = quad([v(0., 0., 0.), v(4., 0., 0.), v(4., 4., 0.), v(0., 4., 0.)]);
+    let s = scene(
+        vec![(floor, Rgb::splat(0.5)), (dome, Rgb::ZERO)],
+        vec![],
+        &[(1, Rgb::ONE)],
+    );
+    let size = default_mesh_size(&s);
+    assert!((size - 32f32.sqrt() / 40.0).abs() < 1e-6, "{size}");
+    let m = RadiosityMesh::build(&s, size);
+    // The dome keeps its 24 patches (its light is shot from them), one element each.
+    let first = m.shape_first_patch[1] as usize;
+    let dome_patches = &m.patches[first..first + 24];
+    assert!(
+        dome_patches.iter().all(|p| p.element_count == 1),
+        "{:?}",
+        dome_patches.iter().map(|p| p.element_count).collect::<Vec<_>>()
+    );
+    // Without the dome the floor alone sets it; with a reflecting dome, the dome does.
+    let mut white = s.clone();
+    white.bsdfs[white.shapes[1].bsdf as usize].kind = crate::scene::BsdfKind::Diffuse {
+        reflectance: Rgb::splat(0.5),
+    };
+    assert!(default_mesh_size(&white) > 2.0);
+}
+
+#[test]
 fn a_planar_lattice_shoots_from_blocks_that_tile_it_and_face_its_front() {
     // A 3 x 2 parallelogram tilted out of every axis plane, facing down-ish, cut into
     // 2 x 30 x 30 triangles: one lattice patch.
