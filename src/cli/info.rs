@@ -7,21 +7,32 @@ use crate::Result;
 
 pub(super) fn cmd_info(a: InfoArgs) -> Result<()> {
     let scene = load_scene(&a.scene, false)?;
-    let tris: usize = scene.shapes.iter().map(|s| s.mesh.triangle_count()).sum();
+    // Spheres and disks are exact: their tessellation only indexes their records.
+    let exact = scene.shapes.iter().filter(|s| s.mesh.quadric.is_some()).count();
+    let tris: usize = scene
+        .shapes
+        .iter()
+        .filter(|s| s.mesh.quadric.is_none())
+        .map(|s| s.mesh.triangle_count())
+        .sum();
     let patches: usize = scene.shapes.iter().map(|s| s.mesh.patches.len()).sum();
     say!("scene    {}", scene.path.display());
     say!(
-        "shapes   {} ({} triangles, {} patches)",
+        "shapes   {} ({} triangles, {} exact spheres and disks, {} patches)",
         scene.shapes.len(),
         tris,
+        exact,
         patches
     );
     for (i, s) in scene.shapes.iter().enumerate() {
         let b = &scene.bsdfs[s.bsdf as usize];
+        let size = match s.mesh.quadric {
+            Some(_) => format!("{:>13}", "exact"),
+            None => format!("{:>8} tris", s.mesh.triangle_count()),
+        };
         say!(
-            "  [{i}] {:<32} {:>8} tris {:>6} patches  bsdf {}{}",
+            "  [{i}] {:<32} {size} {:>6} patches  bsdf {}{}",
             s.name,
-            s.mesh.triangle_count(),
             s.mesh.patches.len(),
             b.name,
             if s.emitter.is_some() { "  (emitter)" } else { "" }
