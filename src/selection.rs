@@ -396,19 +396,6 @@ fn source_power(scene: &Scene, sol: &Solution, total: &[Rgb], s: SourceId) -> f6
 /// gradient criterion ray traces it (see [`judge`]).
 const CURVED_SPREAD: f32 = 0.2;
 
-/// Whether the patch is a piece of a curved surface (a Bezier patch or a sphere; a
-/// disk is flat).
-fn curved(mp: &crate::mesh::MeshPatch) -> bool {
-    use crate::geometry::{ParamSurface, QuadricKind};
-    mp.grids.iter().any(|g| match &g.domain {
-        crate::mesh::Domain::Curved { surface, .. } => !matches!(
-            surface,
-            ParamSurface::Quadric(q, _) if q.kind == QuadricKind::Disk
-        ),
-        _ => false,
-    })
-}
-
 /// Whether a source is a point (point or spot light: one ray, no solid angle).
 fn is_point(scene: &Scene, s: SourceId) -> bool {
     matches!(s, SourceId::Light(l) if !matches!(scene.lights[l as usize], Light::Area { .. }))
@@ -480,7 +467,7 @@ pub fn judge(j: &Judge, p: u32, entry: &ListEntry, tris: &Subtense) -> Criteria 
     // follows the turning normal, which the elements' linear interpolation flattens
     // (a small sphere's top under a lamp comes out 5-8% dark): a source whose
     // unoccluded light varies by more than CURVED_SPREAD over such a patch passes too.
-    if !c.gradient && curved(mp) {
+    if !c.gradient && mp.surface().is_some_and(|s| s.bends()) {
         let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
         for u in &entry.unoccluded {
             let u = mean(*u);

@@ -23,28 +23,23 @@ pub(super) struct Quadrics {
 impl Quadrics {
     /// The exact surfaces of every shape that has one.
     pub(super) fn build(scene: &Scene) -> Self {
-        let items: Vec<(u32, Quadric)> = scene
+        // Each with its box, padded: a disk's box is flat, and a slab test may miss a
+        // flat box.
+        let (items, boxes): (Vec<(u32, Quadric)>, Vec<Aabb>) = scene
             .shapes
             .iter()
             .enumerate()
-            .filter_map(|(s, shape)| shape.mesh.quadric.map(|q| (s as u32, q)))
-            .filter(|(_, q)| {
+            .filter_map(|(s, shape)| {
+                let q = shape.mesh.quadric?;
                 let (lo, hi) = q.bounds();
-                lo.is_finite() && hi.is_finite()
+                let pad = 1e-4 * (hi - lo).length() + 1e-6 * (1.0 + lo.abs().max(hi.abs()).max_element());
+                (lo.is_finite() && hi.is_finite())
+                    .then(|| ((s as u32, q), Aabb::new((lo - pad).into(), (hi + pad).into())))
             })
-            .collect();
+            .unzip();
         if items.is_empty() {
             return Quadrics { items, bvh: None };
         }
-        let boxes: Vec<Aabb> = items
-            .iter()
-            .map(|(_, q)| {
-                // Padded: a disk's box is flat, and a slab test may miss a flat box.
-                let (lo, hi) = q.bounds();
-                let pad = 1e-4 * (hi - lo).length() + 1e-6 * (1.0 + lo.abs().max(hi.abs()).max_element());
-                Aabb::new((lo - pad).into(), (hi + pad).into())
-            })
-            .collect();
         let bvh = build_bvh2(&boxes, BvhBuildParams::medium_build(), &mut Default::default());
         let items = bvh.primitive_indices.iter().map(|&i| items[i as usize]).collect();
         Quadrics {

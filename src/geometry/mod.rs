@@ -73,6 +73,17 @@ impl ParamSurface {
             ParamSurface::Quadric(q, f) => q.normal(*f, u, v),
         }
     }
+
+    /// Whether the normal turns over it (all but a disk, which is flat).
+    pub fn bends(&self) -> bool {
+        !matches!(self, ParamSurface::Quadric(q, _) if q.kind == QuadricKind::Disk)
+    }
+
+    /// Whether rays meet this very surface (a sphere or disk), not a tessellation
+    /// of it (a Bezier patch).
+    pub fn traced_exactly(&self) -> bool {
+        matches!(self, ParamSurface::Quadric(..))
+    }
 }
 
 /// Largest coordinate a mesh may have: beyond it areas and squared distances

@@ -187,8 +187,11 @@ impl Quadric {
     /// The first hit of the segment `origin + t dir`, `t` in `(max(tmin, 0), tmax]`:
     /// its `t` and the surface parameters there.
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<(f32, Param)> {
-        let o = self.local_map().transform_point3(origin.as_dvec3());
-        let d = self.local_map().transform_vector3(dir.as_dvec3());
+        let m = self.local_map();
+        let (o, d) = (
+            m.transform_point3(origin.as_dvec3()),
+            m.transform_vector3(dir.as_dvec3()),
+        );
         let lo = f64::from(tmin.max(0.0));
         let hi = f64::from(tmax);
         let ok = |t: f64| t > lo && t <= hi && t > 0.0;

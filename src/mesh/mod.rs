@@ -96,6 +96,17 @@ pub struct MeshPatch {
     pub twin: Option<u32>,
 }
 
+impl MeshPatch {
+    /// The curved surface the patch is a piece of (a Bezier patch, sphere or disk);
+    /// `None` for a polygon.
+    pub fn surface(&self) -> Option<&ParamSurface> {
+        self.grids.iter().find_map(|g| match &g.domain {
+            Domain::Curved { surface, .. } => Some(surface),
+            _ => None,
+        })
+    }
+}
+
 /// A mesh vertex: where radiosity is computed.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MeshVertex {
@@ -270,12 +281,12 @@ fn cluster_triangles(mesh: &crate::geometry::TriMesh, members: &[u32]) -> Vec<[V
     out
 }
 
-/// Subdivisions for a length: at least 1, at most 256.
 /// Most the normal may turn across an element of a curved surface (radians; 15
 /// degrees: a sphere's pieces of 45 x 45 degrees get 3 x 3 elements, unless that
 /// makes them shorter than a quarter of the mesh size).
 const MAX_BEND: f32 = 0.2618;
 
+/// Subdivisions for a length: at least 1, at most 256.
 fn divisions(len: f32, size: f32) -> u32 {
     if !(len > 0.0) || !(size > 0.0) {
         return 1;

@@ -27,9 +27,8 @@ use rayon::prelude::*;
 use super::point_light_at;
 use crate::accel::Accel;
 use crate::emitters::SampledLight;
-use crate::geometry::ParamSurface;
 use crate::interaction::shadow_ray;
-use crate::mesh::{point_in_polygon, Domain, RadiosityMesh};
+use crate::mesh::{point_in_polygon, RadiosityMesh};
 use crate::sampling::{derive, stratum, Stream};
 use crate::scene::{mean, Rgb};
 
@@ -81,15 +80,7 @@ pub fn project(
             rho * e
         }
     };
-    let exact = patch.grids.iter().any(|g| {
-        matches!(
-            g.domain,
-            Domain::Curved {
-                surface: ParamSurface::Quadric(..),
-                ..
-            }
-        )
-    });
+    let exact = patch.surface().is_some_and(|s| s.traced_exactly());
     for (i, e) in mesh.pieces(p).iter().enumerate() {
         let c = e.corners;
         let centre = (c[0] + c[1] + c[2]) / 3.0;
