@@ -820,7 +820,7 @@ fn the_quality_dial_sets_both_passes_and_a_flag_wins() {
     for (level, want) in [
         ("draft", (32, 16, 1, 0)),
         ("good", (64, 64, 2, 0)),
-        ("final", (128, 256, 3, 128)),
+        ("final", (128, 256, 3, 256)),
     ] {
         let j = run(&["--quality", level]);
         let got = (

@@ -58,7 +58,7 @@ pub struct SceneArgs {
 /// |---|---|---|---|---|
 /// | draft | 32 | 16 | 1 | 0 |
 /// | good | 64 | 64 | 2 | 0 |
-/// | final | 128 | 256 | 3 | 128 |
+/// | final | 128 | 256 | 3 | 256 |
 ///
 /// Chosen by measurement (README, "The quality dial"): `good` reaches Mitsuba 3's
 /// 64-spp FLIP in under 1/5 of its time on the Cornell box and the paper room,
@@ -70,7 +70,7 @@ pub enum Quality {
     /// The default.
     #[default]
     Good,
-    /// The paper's last step on: a final gather of 128 rays, finer shots, 4x the
+    /// The paper's last step on: a final gather of 256 rays, finer shots, 4x the
     /// photons, up to 64 samples per pixel.
     Final,
 }
@@ -93,7 +93,7 @@ impl Quality {
 
     /// Final-gather rays (`--gather`).
     pub fn gather(self) -> u32 {
-        [0, 0, 128][self as usize]
+        [0, 0, 256][self as usize]
     }
 
     /// The level's name, as on the command line.
@@ -106,7 +106,7 @@ impl Quality {
 #[derive(Debug, Args)]
 pub struct SolveArgs {
     /// Quality dial: `draft`, `good` or `final` set --shoot-samples (32/64/128),
-    /// --photons (16/64/256), --max-level (1/2/3) and --gather (0/0/128) at once; any
+    /// --photons (16/64/256), --max-level (1/2/3) and --gather (0/0/256) at once; any
     /// of those flags given on its own wins.
     #[arg(long, value_enum, default_value_t = Quality::Good)]
     pub(super) quality: Quality,
@@ -427,7 +427,7 @@ pub struct ImageArgs {
     /// the light not ray traced from the patch's sources is gathered with this many
     /// cosine-distributed rays that read the radiosity solution, at a grid of the
     /// screen every 4 pixels and anew where those records do not reach (0: interpolate
-    /// the solution at the hit) [default: by --quality, 0 for good, 128 for final].
+    /// the solution at the hit) [default: by --quality, 0 for good, 256 for final].
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=4096))]
     pub(super) gather: Option<u32>,
     /// Pixel reconstruction filter.

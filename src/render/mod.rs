@@ -158,7 +158,7 @@ pub fn render(
             lights: &sel.emitters[..scene.lights.len()],
             area_samples: settings.area_samples,
         };
-        let mut g = Gather::new(&ctx, settings.gather, &sel.stored);
+        let mut g = Gather::new(&ctx, settings.gather, sel);
         first += g.record(&ctx, &camera, settings);
         tracer.set_gather(g);
     }
