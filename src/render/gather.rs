@@ -588,6 +588,12 @@ mod tests {
     use crate::selection::tests::solve_settings;
     use crate::testutil::{scene, square, v};
 
+    /// A gather of 16 rays for the selection `method` makes of the context's solution.
+    fn gather_of(s: &Scene, ctx: &Context, method: crate::selection::Method) -> Gather {
+        let sel = crate::selection::select(s, ctx.solution, method, &Default::default(), None).unwrap();
+        Gather::new(ctx, 16, &sel)
+    }
+
     /// A gather ray that lands near relights its hit by shadow rays: under a small
     /// slab that the 1 m mesh cannot follow, the floor's interpolated light from the
     /// point light is far from zero, but the relit one is zero; in the open it is the
@@ -615,15 +621,7 @@ mod tests {
             lights: &lights,
             area_samples: 16,
         };
-        let sel = crate::selection::select(
-            &s,
-            &sol,
-            crate::selection::Method::Local,
-            &Default::default(),
-            None,
-        )
-        .unwrap();
-        let g = Gather::new(&ctx, 16, &sel);
+        let g = gather_of(&s, &ctx, crate::selection::Method::Local);
         // The floor point (x, y) as a gather ray from just above it meets it.
         let at = |x: f32, y: f32| {
             let ray = Ray::new(v(x, y, 0.05), v(0.0, 0.0, -1.0));
@@ -694,15 +692,7 @@ mod tests {
             lights: &[],
             area_samples: 16,
         };
-        let sel = crate::selection::select(
-            &s,
-            &sol,
-            crate::selection::Method::Twopass,
-            &Default::default(),
-            None,
-        )
-        .unwrap();
-        let g = Gather::new(&ctx, 16, &sel);
+        let g = gather_of(&s, &ctx, crate::selection::Method::Twopass);
         let ray = Ray::new(v(0.9, 0.0, 0.5), v(0.0, 0.0, -1.0));
         let hit = bvh.intersect(&ray).expect("the floor");
         let sp = SurfacePoint::new(&s, &ray, &hit);
