@@ -816,11 +816,12 @@ fn the_quality_dial_sets_both_passes_and_a_flag_wins() {
         assert!(o.status.success(), "{extra:?}: {}", stderr(&o));
         serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap()
     };
-    // (shoot samples, photons per vertex, max level, gather rays) of each level.
-    for (level, want) in [
-        ("draft", (32, 16, 1, 0)),
-        ("good", (64, 64, 2, 0)),
-        ("final", (128, 256, 3, 256)),
+    // (shoot samples, photons per vertex, max level, gather rays) of each level, and
+    // the solve tolerance.
+    for (level, want, tolerance) in [
+        ("draft", (32, 16, 1, 0), 0.01),
+        ("good", (64, 64, 2, 0), 0.01),
+        ("final", (128, 256, 3, 256), 0.005),
     ] {
         let j = run(&["--quality", level]);
         let got = (
@@ -830,6 +831,11 @@ fn the_quality_dial_sets_both_passes_and_a_flag_wins() {
             j["gather"].as_u64().unwrap(),
         );
         assert_eq!(got, want, "--quality {level}");
+        assert_eq!(
+            j["solve"]["tolerance"].as_f64().unwrap() as f32,
+            tolerance,
+            "--quality {level}"
+        );
         assert_eq!(
             j["gather_rays"].as_u64().unwrap() > 0,
             want.3 > 0,

@@ -54,11 +54,11 @@ pub struct SceneArgs {
 /// The quality dial: one flag that sets the effort of both passes. Each flag it sets
 /// can still be given on its own, and then wins.
 ///
-/// | level | `--shoot-samples` | `--photons` | `--max-level` | `--gather` |
-/// |---|---|---|---|---|
-/// | draft | 32 | 16 | 1 | 0 |
-/// | good | 64 | 64 | 2 | 0 |
-/// | final | 128 | 256 | 3 | 256 |
+/// | level | `--shoot-samples` | `--solve-tolerance` | `--photons` | `--max-level` | `--gather` |
+/// |---|---|---|---|---|---|
+/// | draft | 32 | 0.01 | 16 | 1 | 0 |
+/// | good | 64 | 0.01 | 64 | 2 | 0 |
+/// | final | 128 | 0.005 | 256 | 3 | 256 |
 ///
 /// Chosen by measurement (README, "The quality dial"): `good` reaches Mitsuba 3's
 /// 64-spp FLIP in under 1/5 of its time on the Cornell box and the paper room,
@@ -70,8 +70,8 @@ pub enum Quality {
     /// The default.
     #[default]
     Good,
-    /// The paper's last step on: a final gather of 256 rays, finer shots, 4x the
-    /// photons, up to 64 samples per pixel.
+    /// The paper's last step on: a final gather of 256 rays, finer shots carrying
+    /// more of the light, 4x the photons, up to 64 samples per pixel.
     Final,
 }
 
@@ -79,6 +79,17 @@ impl Quality {
     /// Most cells of a shooting source (`--shoot-samples`).
     pub fn shoot_samples(self) -> u32 {
         [32, 64, 128][self as usize]
+    }
+
+    /// Fraction of the lights' power the deterministic shots leave to the photons
+    /// (`--solve-tolerance`). Photons leave their power on the vertices of the element
+    /// they hit, an average over one element, so near a concave corner, where the light
+    /// falls off, they overshoot: `final` leaves them half as much (Cornell box, the
+    /// corners a few per cent bright: FLIP 0.0176 -> 0.0160 for 0.15 s; the paper room
+    /// unchanged, 0.0272 -> 0.0273 and 0.0391 -> 0.0390; `good` is not better for it,
+    /// 0.0244 -> 0.0251 on the Cornell box).
+    pub fn solve_tolerance(self) -> f32 {
+        [0.01, 0.01, 0.005][self as usize]
     }
 
     /// Photons per mesh vertex (`--photons`).
@@ -106,8 +117,8 @@ impl Quality {
 #[derive(Debug, Args)]
 pub struct SolveArgs {
     /// Quality dial: `draft`, `good` or `final` set --shoot-samples (32/64/128),
-    /// --photons (16/64/256), --max-level (1/2/3) and --gather (0/0/256) at once; any
-    /// of those flags given on its own wins.
+    /// --solve-tolerance (0.01/0.01/0.005), --photons (16/64/256), --max-level (1/2/3)
+    /// and --gather (0/0/256) at once; any of those flags given on its own wins.
     #[arg(long, value_enum, default_value_t = Quality::Good)]
     pub(super) quality: Quality,
     /// Largest radiosity element edge, in scene units [default: the bounding-box
@@ -125,9 +136,10 @@ pub struct SolveArgs {
     pub(super) shoot_samples: Option<u32>,
     /// Deterministic shots stop when the unshot power falls below this fraction of the
     /// power the lights brought to reflecting surfaces (of the emitted power, if
-    /// less), or (with photons) when no patch holds this fraction.
-    #[arg(long, default_value_t = 0.01, value_name = "FRACTION")]
-    pub(super) solve_tolerance: f32,
+    /// less), or (with photons) when no patch holds this fraction [default: by
+    /// --quality, 0.01 for good, 0.005 for final].
+    #[arg(long, value_name = "FRACTION")]
+    pub(super) solve_tolerance: Option<f32>,
     /// Deterministic patch shots at most.
     #[arg(long, default_value_t = 20000)]
     pub(super) max_shots: u32,
@@ -155,7 +167,7 @@ impl SolveArgs {
                 .sources_per_patch
                 .unwrap_or((scene.lights.len() as u32).clamp(4, 64)),
             shoot_samples: self.shoot_samples.unwrap_or(self.quality.shoot_samples()),
-            tolerance: self.solve_tolerance,
+            tolerance: self.solve_tolerance.unwrap_or(self.quality.solve_tolerance()),
             max_shots: self.max_shots,
             seed,
             photons: self.photons.unwrap_or(self.quality.photons()),
