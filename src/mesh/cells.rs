@@ -76,8 +76,8 @@ impl RadiosityMesh {
                 for (c, &(cs, ct)) in corners.iter().enumerate() {
                     poly[c] = grid.eval(cs, ct).0;
                 }
-                let value = if field.is_empty() {
-                    Vec3::ZERO
+                let (value, quarters) = if field.is_empty() {
+                    (Vec3::ZERO, [Vec3::ZERO; 4])
                 } else {
                     cell_mean(q, tri, |a, b| {
                         let (s, t) = at(a, b);
@@ -127,6 +127,7 @@ impl RadiosityMesh {
                     p: pos,
                     n,
                     value,
+                    quarters,
                     weight,
                     flat: !curved,
                 });
@@ -181,6 +182,8 @@ pub struct ShootCell {
     /// quadrature of points about half an element apart, so what a cell carries does
     /// not depend on where its point was jittered.
     pub value: Rgb,
+    /// The means over the cell's quarters ([`ShootCell::quarter`]), by the same points.
+    pub quarters: [Rgb; 4],
     /// What the cell's light counts for: 1, or (area of the surface) / (area of the
     /// cells drawn) when the cells are a sample of a surface of more pieces than cells.
     pub weight: f32,
@@ -189,28 +192,50 @@ pub struct ShootCell {
     pub flat: bool,
 }
 
-/// The mean of `f` over a cell, by `q` x `q` points: on a square's grid of cell
-/// centres (`tri` false; local coordinates in [0, 1]^2), or at the centroids of a
-/// triangle cut into q^2 (`tri` true; barycentrics of corners 1 and 2).
-fn cell_mean(q: u32, tri: bool, f: impl Fn(f32, f32) -> Rgb) -> Rgb {
+/// The mean of `f` over a cell, by `q` x `q` points, and its means over the cell's
+/// quarters ([`ShootCell::quarter`]): on a square's grid of cell centres (`tri`
+/// false; local coordinates in [0, 1]^2), or at the centroids of a triangle cut into
+/// q^2 (`tri` true; barycentrics of corners 1 and 2). An odd `q` is taken one
+/// higher, so that the points fall evenly into the quarters.
+fn cell_mean(q: u32, tri: bool, f: impl Fn(f32, f32) -> Rgb) -> (Rgb, [Rgb; 4]) {
+    let q = q + q % 2;
     let qf = q as f32;
-    let mut sum = Vec3::ZERO;
+    let mut quarters = [Vec3::ZERO; 4];
+    let mut add = |a: f32, b: f32| {
+        let k = if tri {
+            // Corner 0's, corner 1's, corner 2's, then the middle triangle.
+            if a + b < 0.5 {
+                0
+            } else if a > 0.5 {
+                1
+            } else if b > 0.5 {
+                2
+            } else {
+                3
+            }
+        } else {
+            usize::from(a > 0.5) + 2 * usize::from(b > 0.5)
+        };
+        quarters[k] += f(a, b);
+    };
     for j in 0..q {
         if tri {
             for i in 0..q - j {
                 let (i, jf) = (i as f32, j as f32);
-                sum += f((i + 1.0 / 3.0) / qf, (jf + 1.0 / 3.0) / qf);
+                add((i + 1.0 / 3.0) / qf, (jf + 1.0 / 3.0) / qf);
                 if i + jf + 1.0 < qf {
-                    sum += f((i + 2.0 / 3.0) / qf, (jf + 2.0 / 3.0) / qf);
+                    add((i + 2.0 / 3.0) / qf, (jf + 2.0 / 3.0) / qf);
                 }
             }
         } else {
             for i in 0..q {
-                sum += f((i as f32 + 0.5) / qf, (j as f32 + 0.5) / qf);
+                add((i as f32 + 0.5) / qf, (j as f32 + 0.5) / qf);
             }
         }
     }
-    sum / (q * q) as f32
+    let per = (q * q / 4) as f32;
+    let quarters = quarters.map(|v| v / per);
+    (quarters.iter().copied().sum::<Rgb>() / 4.0, quarters)
 }
 
 /// About `count` shooting cells over the triangles `tris` (the exact surface, wound to
@@ -269,7 +294,7 @@ fn flat_cell(poly: &[Vec3], p: Vec3, weight: f32, mesh_size: f32, value: impl Fn
     };
     let side = (0.5 * n.length()).sqrt();
     let q = ((2.0 * side / mesh_size.max(1e-30)).ceil() as u32).clamp(1, 16);
-    let value = cell_mean(q, tri, |a, b| {
+    let (value, quarters) = cell_mean(q, tri, |a, b| {
         value(if tri {
             poly[0] + (poly[1] - poly[0]) * a + (poly[2] - poly[0]) * b
         } else {
@@ -284,6 +309,7 @@ fn flat_cell(poly: &[Vec3], p: Vec3, weight: f32, mesh_size: f32, value: impl Fn
         p,
         n: n.normalize_or(Vec3::Z),
         value,
+        quarters,
         weight,
         flat: true,
     }
@@ -314,6 +340,29 @@ impl ShootCell {
     pub fn polygon(&self) -> &[Vec3] {
         &self.corners[..self.len as usize]
     }
+}
+
+/// Quarter `k` of the cell polygon `poly` (3 or 4 corners, counter-clockwise), as
+/// [`ShootCell::quarters`] are taken: of a quadrilateral, the one at local (a, b) in
+/// [0, 1/2] or [1/2, 1] each (k = [a > 1/2] + 2 [b > 1/2]); of a triangle, the corner
+/// triangles of corners 0, 1, 2 and the middle one. Wound as `poly`; (corners, len).
+pub fn quarter(poly: &[Vec3], k: usize) -> ([Vec3; 4], usize) {
+    if let [c0, c1, c2] = *poly {
+        let (m01, m12, m02) = ((c0 + c1) * 0.5, (c1 + c2) * 0.5, (c0 + c2) * 0.5);
+        let t = match k {
+            0 => [c0, m01, m02],
+            1 => [m01, c1, m12],
+            2 => [m02, m12, c2],
+            _ => [m01, m12, m02],
+        };
+        return ([t[0], t[1], t[2], Vec3::ZERO], 3);
+    }
+    let at = |a: f32, b: f32| point_in_polygon(poly, Vec2::new(a, b));
+    let (a, b) = ((k % 2) as f32 * 0.5, (k / 2) as f32 * 0.5);
+    (
+        [at(a, b), at(a + 0.5, b), at(a + 0.5, b + 0.5), at(a, b + 0.5)],
+        4,
+    )
 }
 
 /// The point at `u` in the triangle or (planar) quadrilateral `poly`: barycentric,

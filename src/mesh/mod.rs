@@ -23,7 +23,7 @@ mod cover;
 mod lattice;
 mod pieces;
 
-pub use cells::{point_in_polygon, ShootCell};
+pub use cells::{point_in_polygon, quarter, ShootCell};
 pub use lattice::Lattice;
 pub use pieces::Piece;
 

@@ -223,6 +223,25 @@ fn shoot_cells_carry_the_fields_mean_whatever_the_jitter() {
             .all(|(x, y)| x.value == y.value && x.weight == y.weight));
         assert!((power(&a) - 16.0).abs() < 0.16, "{count} cells: {}", power(&a));
     }
+    // Each quarter carries the field's mean over it: for a linear field, the field at
+    // the quarter's centroid; the quarters' mean is the cell's.
+    let s = tri_scene();
+    let m = RadiosityMesh::build(&s, 0.25);
+    let f = linear(&m);
+    for c in m.shoot_cells(0, 4, |_| Vec2::splat(0.3), &f) {
+        for k in 0..4 {
+            let (corners, len) = crate::mesh::quarter(c.polygon(), k);
+            let centroid = corners[..len].iter().sum::<Vec3>() / len as f32;
+            let want = 1.0 + centroid.x + 2.0 * centroid.y;
+            assert!(
+                (c.quarters[k].x - want).abs() < 1e-4 * want,
+                "quarter {k}: {} vs {want}",
+                c.quarters[k].x
+            );
+        }
+        let mean = c.quarters.iter().sum::<Vec3>() / 4.0;
+        assert!((mean - c.value).abs().max_element() < 1e-5 * c.value.x);
+    }
 }
 
 #[test]

@@ -43,7 +43,7 @@ mod project;
 mod shot;
 mod transfer;
 
-pub use form_factor::point_polygon_form_factor;
+pub use form_factor::{point_polygon_form_factor, quarter_form_factors};
 use shot::{Levels, ShootPoint, Touching, FIRST_LIGHT_RAYS};
 
 /// What shot light: a light source of the scene or a radiant patch of the mesh.
@@ -517,7 +517,7 @@ impl Solver<'_> {
                         .mesh
                         .shoot_cells(p as u32, k, |i| jitter(base.wrapping_add(i)), &[])
                     {
-                        pts.push(ShootPoint::from_cell(&c, radiance * std::f32::consts::PI));
+                        pts.push(ShootPoint::uniform(&c, radiance * std::f32::consts::PI));
                     }
                 }
                 pts
@@ -533,7 +533,7 @@ impl Solver<'_> {
         self.mesh
             .shoot_cells(p, count, jitter, &self.unshot)
             .iter()
-            .map(|c| ShootPoint::from_cell(c, c.value))
+            .map(ShootPoint::from_cell)
             .collect()
     }
 
@@ -749,7 +749,7 @@ impl Solver<'_> {
             return self.shoot(SourceId::Patch(p as u32), levels);
         };
         let source = SourceId::Patch(p as u32);
-        let radiosity = levels.radiosity();
+        let (radiosity, quarters) = (levels.radiosity(), levels.quarters());
         let mesh = &self.mesh;
         let per_vertex: Vec<AtVertex> = mesh
             .vertices
@@ -761,7 +761,7 @@ impl Solver<'_> {
                     return (Vec3::ZERO, Vec3::ZERO, 0);
                 }
                 let rho = mesh.patches[v.patch as usize].reflectance;
-                let (o, u) = kept.receive(i, &radiosity);
+                let (o, u) = kept.receive(i, &radiosity, &quarters);
                 (o * rho, u * rho, 0)
             })
             .collect();

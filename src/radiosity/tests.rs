@@ -727,6 +727,7 @@ fn cells_touch_where_they_share_a_corner() {
             poly,
             len: 4,
             radiosity: Vec3::ONE,
+            quarters: [Vec3::ONE; 4],
             flat: true,
         }
     };

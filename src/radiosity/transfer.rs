@@ -25,16 +25,24 @@ pub struct Link {
     pub f: f32,
     /// The fraction of its shadow rays that reached it.
     pub vis: f32,
+    /// Where the vertex took the cell's light by quarters: their form factors
+    /// (`f` is then unused).
+    pub quarters: Option<[f32; 4]>,
 }
 
 /// A link as kept: the visibility in units of 2^-15 (exact for the fractions of up
 /// to 2^15 rays a shot casts to a cell).
 #[derive(Debug, Clone, Copy)]
 struct Packed {
+    /// The form factor, or for a link by quarters (`cell`'s top bit set) the index
+    /// of its quarters' form factors.
     f: f32,
     cell: u16,
     vis: u16,
 }
+
+/// The top bit of [`Packed::cell`]: the link takes the cell by quarters.
+const BY_QUARTERS: u16 = 1 << 15;
 
 const VIS_ONE: f32 = 32768.0;
 
@@ -43,41 +51,73 @@ pub struct Transfer {
     /// Vertex `i`'s links are `links[start[i]..start[i + 1]]`.
     start: Vec<u32>,
     links: Vec<Packed>,
+    quarters: Vec<[f32; 4]>,
 }
 
 impl Transfer {
     /// Gathers the links of each vertex (in vertex order). `None` when the shot has
-    /// more links than a `u32` counts or more cells than a `u16` does.
+    /// more links than a `u32` counts or more cells than 15 bits do.
     pub fn new(per_vertex: impl ExactSizeIterator<Item = Vec<Link>>) -> Option<Self> {
         let mut start = Vec::with_capacity(per_vertex.len() + 1);
         start.push(0);
         let mut links = Vec::new();
+        let mut quarters = Vec::new();
         for v in per_vertex {
             for l in v {
+                let cell = u16::try_from(l.cell).ok().filter(|c| c & BY_QUARTERS == 0)?;
+                let (f, cell) = match l.quarters {
+                    Some(q) => {
+                        quarters.push(q);
+                        (
+                            f32::from_bits(u32::try_from(quarters.len() - 1).ok()?),
+                            cell | BY_QUARTERS,
+                        )
+                    }
+                    None => (l.f, cell),
+                };
                 links.push(Packed {
-                    f: l.f,
-                    cell: u16::try_from(l.cell).ok()?,
+                    f,
+                    cell,
                     vis: (l.vis.clamp(0.0, 1.0) * VIS_ONE).round() as u16,
                 });
             }
             start.push(u32::try_from(links.len()).ok()?);
         }
-        Some(Transfer { start, links })
+        Some(Transfer {
+            start,
+            links,
+            quarters,
+        })
     }
 
     /// Bytes it takes.
     pub fn bytes(&self) -> usize {
-        self.start.len() * std::mem::size_of::<u32>() + self.links.len() * std::mem::size_of::<Packed>()
+        self.start.len() * std::mem::size_of::<u32>()
+            + self.links.len() * std::mem::size_of::<Packed>()
+            + self.quarters.len() * std::mem::size_of::<[f32; 4]>()
     }
 
-    /// What vertex `i` receives when the cells send `radiosity` (indexed as
-    /// [`Link::cell`]): (occluded, unoccluded) irradiance.
-    pub fn receive(&self, i: usize, radiosity: &[glam::Vec3]) -> (glam::Vec3, glam::Vec3) {
+    /// What vertex `i` receives when the cells send `radiosity`, and their quarters
+    /// `quarters` (both indexed as [`Link::cell`]): (occluded, unoccluded) irradiance.
+    pub fn receive(
+        &self,
+        i: usize,
+        radiosity: &[glam::Vec3],
+        quarters: &[[glam::Vec3; 4]],
+    ) -> (glam::Vec3, glam::Vec3) {
         let links = &self.links[self.start[i] as usize..self.start[i + 1] as usize];
         links
             .iter()
             .fold((glam::Vec3::ZERO, glam::Vec3::ZERO), |(o, u), l| {
-                let bf = radiosity[l.cell as usize] * l.f;
+                let bf = if l.cell & BY_QUARTERS != 0 {
+                    quarters[(l.cell & !BY_QUARTERS) as usize]
+                        .iter()
+                        .zip(self.quarters[l.f.to_bits() as usize])
+                        .map(|(b, f)| *b * f)
+                        .sum()
+                } else {
+                    radiosity[l.cell as usize] * l.f
+                };
                 (o + bf * (f32::from(l.vis) / VIS_ONE), u + bf)
             })
     }
@@ -130,7 +170,12 @@ mod tests {
     use glam::Vec3;
 
     fn link(cell: u32, f: f32, vis: f32) -> Link {
-        Link { cell, f, vis }
+        Link {
+            cell,
+            f,
+            vis,
+            quarters: None,
+        }
     }
 
     #[test]
@@ -145,12 +190,25 @@ mod tests {
         )
         .unwrap();
         let b = [Vec3::splat(2.0), Vec3::new(1.0, 2.0, 3.0), Vec3::splat(10.0)];
+        let qs = b.map(|x| [x; 4]);
         // 2 * 0.25 + 10 * 0.1 = 1.5 occluded; 2 * 0.5 + 10 * 0.1 = 2 unoccluded.
-        assert_eq!(t.receive(0, &b), (Vec3::splat(1.5), Vec3::splat(2.0)));
-        assert_eq!(t.receive(1, &b), (Vec3::ZERO, Vec3::ZERO));
-        assert_eq!(t.receive(2, &b), (Vec3::ZERO, Vec3::new(0.2, 0.4, 0.6)));
+        assert_eq!(t.receive(0, &b, &qs), (Vec3::splat(1.5), Vec3::splat(2.0)));
+        assert_eq!(t.receive(1, &b, &qs), (Vec3::ZERO, Vec3::ZERO));
+        assert_eq!(t.receive(2, &b, &qs), (Vec3::ZERO, Vec3::new(0.2, 0.4, 0.6)));
         assert_eq!(t.bytes(), 4 * 4 + 3 * 8);
-        assert!(Transfer::new(vec![vec![link(1 << 16, 0.1, 1.0)]].into_iter()).is_none());
+        assert!(Transfer::new(vec![vec![link(1 << 15, 0.1, 1.0)]].into_iter()).is_none());
+        // A link by quarters takes each quarter's radiosity with its form factor.
+        let q = Link {
+            quarters: Some([0.1, 0.2, 0.3, 0.4]),
+            ..link(1, 0.0, 0.5)
+        };
+        let t = Transfer::new(vec![vec![q, link(0, 0.5, 1.0)]].into_iter()).unwrap();
+        let qs = [[Vec3::ONE; 4], [Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE]];
+        let got = t.receive(0, &b[..2], &qs);
+        let by_quarters = Vec3::new(0.1 + 0.4, 0.2 + 0.4, 0.3 + 0.4);
+        assert_eq!(got.1, by_quarters + Vec3::splat(1.0));
+        assert_eq!(got.0, by_quarters * 0.5 + Vec3::splat(1.0));
+        assert_eq!(t.bytes(), 2 * 4 + 2 * 8 + 16);
     }
 
     #[test]
