@@ -172,7 +172,8 @@ pub(super) struct ShootPoint {
     /// Radiosity the cell emits (for point lights: the intensity).
     pub(super) radiosity: Rgb,
     /// The radiosity of the cell's quarters ([`crate::mesh::quarter`]): a receiver
-    /// takes each quarter's form factor with its own radiosity ([`quartered`]).
+    /// takes each quarter's form factor with its own radiosity
+    /// ([`quarter_form_factors_near`]).
     pub(super) quarters: [Rgb; 4],
     /// Every point of `poly` is on the surface: each receiver aims at a point of its
     /// own in the cell, not at `p`.
@@ -298,16 +299,16 @@ impl Solver<'_> {
                 if h <= margin {
                     continue;
                 }
-                let poly = &sp.poly[..sp.len as usize];
-                f = point_polygon_form_factor(x, n, poly);
+                quarter_fs = quarter_form_factors_near(sp, x, n);
+                f = match quarter_fs {
+                    Some(q) => q.iter().sum(),
+                    None => point_polygon_form_factor(x, n, &sp.poly[..sp.len as usize]),
+                };
                 if !(f > 0.0) {
                     continue;
                 }
-                match quartered(sp, x, n) {
-                    Some((e, fs)) => {
-                        quarter_fs = Some(fs);
-                        e
-                    }
+                match quarter_fs {
+                    Some(q) => sp.quarters.iter().zip(q).map(|(b, f)| *b * f).sum(),
                     None => sp.radiosity * f,
                 }
             };
@@ -398,21 +399,22 @@ impl Solver<'_> {
 }
 
 /// A receiver takes a cell's light by quarters within this many of the cell's
-/// diagonals of its centre (see [`quartered`]).
+/// diagonals of its centre (see [`quarter_form_factors_near`]).
 const QUARTERS_WITHIN: f32 = 3.0;
 
-/// What a flat cell sends a receiver at `x` (normal `n`) within [`QUARTERS_WITHIN`]:
-/// the sum over its quarters of each one's radiosity times its form factor (returned
-/// with the four form factors, which a kept shot's links keep), not the mean
-/// radiosity times the cell's form factor, since a receiver near a cell sees its
-/// parts under very different angles. In a concave corner, where the light falls off
-/// into the edge, the mean lit the next wall's edge too brightly (Cornell box: the
-/// ceiling 1 cm from the back wall 20 % bright against a path-traced estimate).
-/// Cornell box FLIP against Mitsuba: `draft` 0.0357 -> 0.0282, `good` 0.0244 ->
-/// 0.0208; paper room view a `draft` 0.0430 -> 0.0404, `good` 0.0388 -> 0.0380; for
-/// 3-10 % more time, the conference room's solve 12.0 -> 14.2 s. Within 8 diagonals:
-/// 0.0269, 0.0198, 0.0391, 0.0362, but the conference's solve 15.8 s.
-fn quartered(sp: &ShootPoint, x: Vec3, n: Vec3) -> Option<(Rgb, [f32; 4])> {
+/// The form factors from a receiver at `x` (normal `n`) to the quarters of a flat
+/// cell within [`QUARTERS_WITHIN`] of it (their sum is the cell's), else `None`.
+/// Such a receiver takes the cell's light as the sum over its quarters of each one's
+/// radiosity times its form factor (and a kept shot's links keep the four), not the
+/// mean radiosity times the cell's form factor, since it sees the cell's parts under
+/// very different angles. In a concave corner, where the light falls off into the
+/// edge, the mean lit the next wall's edge too brightly (Cornell box: the ceiling 1 cm
+/// from the back wall 20 % bright against a path-traced estimate). Cornell box FLIP
+/// against Mitsuba: `draft` 0.0357 -> 0.0282, `good` 0.0244 -> 0.0208; paper room view
+/// a `draft` 0.0430 -> 0.0404, `good` 0.0388 -> 0.0380; for 3-10 % more time, the
+/// conference room's solve 12.0 -> 14.2 s. Within 8 diagonals: 0.0269, 0.0198,
+/// 0.0391, 0.0362, but the conference's solve 15.8 s.
+fn quarter_form_factors_near(sp: &ShootPoint, x: Vec3, n: Vec3) -> Option<[f32; 4]> {
     // The cell's geometry alone decides (not its light, nor its jittered point), so
     // that a kept shot's links stay valid for the patch's next shots.
     if !sp.flat {
@@ -424,11 +426,10 @@ fn quartered(sp: &ShootPoint, x: Vec3, n: Vec3) -> Option<(Rgb, [f32; 4])> {
     if (centre - x).length_squared() > QUARTERS_WITHIN * QUARTERS_WITHIN * diagonal {
         return None;
     }
-    let f = super::quarter_form_factors(x, n, poly).unwrap_or_else(|| {
+    Some(super::quarter_form_factors(x, n, poly).unwrap_or_else(|| {
         std::array::from_fn(|k| {
             let (corners, len) = crate::mesh::quarter(poly, k);
             point_polygon_form_factor(x, n, &corners[..len])
         })
-    });
-    Some((sp.quarters.iter().zip(f).map(|(q, f)| *q * f).sum(), f))
+    }))
 }

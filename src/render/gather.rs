@@ -37,7 +37,7 @@
 //! irradiance cache, 1988), at least [`MIN_STEPS`] grid steps and at most
 //! [`MAX_STEPS`] on the screen. A hit within records of its own patch interpolates
 //! them, each extrapolated to the hit by its translation and rotation gradients
-//! (Ward and Heckbert 1992, see [`Found::gradients`]); elsewhere (near other
+//! (Ward and Heckbert 1992, see [`Hemisphere::gradients`]); elsewhere (near other
 //! surfaces, where the records' radii are small, and on small patches) it gathers
 //! for itself. Without the gradients, records a little way up a wall served its foot
 //! with the light of higher up: the short block's face at the floor 45 % bright,
@@ -113,19 +113,37 @@ impl Record {
     }
 }
 
-/// What one gather found at a point.
-struct Found {
-    e: Rgb,
-    harmonic: f32,
-    translation: [Vec3; 3],
-    rotation: [Vec3; 3],
+/// One stratified gather at a point: per cell (`rings` x `sectors`, ring-major) what
+/// its ray brought and how far its first hit was (infinite for none), in the frame
+/// (`t`, `b`, n) of the point's normal n.
+struct Hemisphere {
+    value: Vec<Rgb>,
+    dist: Vec<f32>,
+    rings: u32,
+    sectors: u32,
+    t: Vec3,
+    b: Vec3,
 }
 
-impl Found {
-    /// Ward and Heckbert's gradients from the stratified gather: `value` and `dist`
-    /// per cell (`m` rings of `k_n` sectors, ring-major), in the frame (`t`, `b`, n).
-    /// The reading of a cell is `value / pi` (radiance), its share of the
-    /// irradiance `pi / cells`.
+impl Hemisphere {
+    /// The irradiance of what the rays brought (cosine-distributed: their mean).
+    fn irradiance(&self) -> Rgb {
+        self.value.iter().copied().sum::<Rgb>() / self.value.len() as f32
+    }
+
+    /// The harmonic mean distance of what the rays met (Ward's record radius).
+    fn harmonic(&self) -> f32 {
+        let inverse: f32 = self.dist.iter().map(|d| 1.0 / d).sum();
+        if inverse > 0.0 {
+            self.dist.len() as f32 / inverse
+        } else {
+            f32::INFINITY
+        }
+    }
+
+    /// Ward and Heckbert's translation and rotation gradients of the irradiance, per
+    /// colour channel. The reading of a cell is `value / pi` (radiance), its share of
+    /// the irradiance `pi / cells`.
     ///
     /// Translation: moving the point by d carries what is seen at distance r in
     /// direction (theta, phi) by `d cos theta / r` across a ring border (the sliver
@@ -134,8 +152,9 @@ impl Found {
     /// per ring); each border uses the nearer of its two cells. Rotation: turning the
     /// normal towards direction phi changes a cell's cosine by `sin theta cos phi`,
     /// `tan theta` times its share.
-    fn gradients(&mut self, value: &[Rgb], dist: &[f32], m: u32, k_n: u32, t: Vec3, b: Vec3) {
+    fn gradients(&self) -> ([Vec3; 3], [Vec3; 3]) {
         use std::f32::consts::PI;
+        let (value, dist, m, k_n, t, b) = (&self.value, &self.dist, self.rings, self.sectors, self.t, self.b);
         let at = |j: u32, k: u32| (j * k_n + k) as usize;
         let dphi = 2.0 * PI / k_n as f32;
         let share = PI / (m * k_n) as f32;
@@ -172,8 +191,7 @@ impl Found {
                 }
             }
         }
-        self.translation = tr;
-        self.rotation = rot;
+        (tr, rot)
     }
 }
 
@@ -325,18 +343,18 @@ impl Gather {
                     let Some(patch) = gatherable(ctx, &sp, &hit) else {
                         continue;
                     };
-                    let found = this.gather(ctx, &sp, patch, s, this.rays, &mut counters);
-                    let harmonic = found.harmonic;
+                    let h = this.gather(ctx, &sp, patch, s, this.rays, &mut counters);
+                    let (translation, rotation) = h.gradients();
                     // One grid step on the screen at the record's distance.
                     let step = (sp.p - ray.origin).length() * SPACING as f32 / per_radian;
                     out.push(Record {
                         p: sp.p,
                         n: sp.ns,
                         patch,
-                        radius: harmonic.clamp(MIN_STEPS * step, MAX_STEPS * step),
-                        e: found.e,
-                        translation: found.translation,
-                        rotation: found.rotation,
+                        radius: h.harmonic().clamp(MIN_STEPS * step, MAX_STEPS * step),
+                        e: h.irradiance(),
+                        translation,
+                        rotation,
                     });
                 }
                 (out, counters)
@@ -412,7 +430,7 @@ impl Gather {
         }
         let rays = (self.rays / ANEW_SHARE).max(1);
         self.gather(ctx, sp, patch, derive(seed, Stream::Gather), rays, counters)
-            .e
+            .irradiance()
     }
 
     /// The part of the stored radiosity the gather keeps, at the point `interp`.
@@ -429,9 +447,8 @@ impl Gather {
         self.folded.get(patch as usize).map_or(&[], Vec::as_slice)
     }
 
-    /// Gathers at `sp` on `patch` with about `n` rays: the irradiance of the light
-    /// that the patch's list does not bring, the harmonic mean distance of what the
-    /// rays met, and its translation and rotation gradients.
+    /// Gathers at `sp` on `patch` with about `n` rays the light that the patch's list
+    /// does not bring.
     ///
     /// The rays are stratified in the projected hemisphere, `m` rings of equal
     /// projected solid angle (sin^2 theta uniform) by `k` sectors, one ray per cell:
@@ -445,7 +462,7 @@ impl Gather {
         seed: u32,
         n: u32,
         counters: &mut Counters,
-    ) -> Found {
+    ) -> Hemisphere {
         let traced = &self.traced_patches[patch as usize];
         let m = ((n as f32 / std::f32::consts::PI).sqrt().round() as u32).max(1);
         let k_n = (n / m).max(1);
@@ -454,7 +471,6 @@ impl Gather {
         // Per cell (ring-major): what its ray brought and how far it went.
         let mut value = vec![Rgb::ZERO; cells];
         let mut dist = vec![f32::INFINITY; cells];
-        let mut inverse = 0.0;
         for j in 0..m {
             for kk in 0..k_n {
                 let k = j * k_n + kk;
@@ -474,7 +490,6 @@ impl Gather {
                         break;
                     };
                     if bounce == 0 {
-                        inverse += 1.0 / hit.t.max(1e-6);
                         dist[k as usize] = hit.t.max(1e-6);
                     }
                     let y = SurfacePoint::new(ctx.scene, &ray, &hit);
@@ -516,20 +531,14 @@ impl Gather {
                 value[k as usize] = e;
             }
         }
-        let e = value.iter().copied().sum::<Rgb>() / cells as f32;
-        let harmonic = if inverse > 0.0 {
-            cells as f32 / inverse
-        } else {
-            f32::INFINITY
-        };
-        let mut found = Found {
-            e,
-            harmonic,
-            translation: [Vec3::ZERO; 3],
-            rotation: [Vec3::ZERO; 3],
-        };
-        found.gradients(&value, &dist, m, k_n, t, b);
-        found
+        Hemisphere {
+            value,
+            dist,
+            rings: m,
+            sectors: k_n,
+            t,
+            b,
+        }
     }
 }
 
@@ -698,17 +707,18 @@ mod tests {
         let sp = SurfacePoint::new(&s, &ray, &hit);
         let patch = gatherable(&ctx, &sp, &hit).expect("a diffuse floor");
         let mut counters = Counters::default();
-        let f = g.gather(&ctx, &sp, patch, 5, 4096, &mut counters);
+        let h = g.gather(&ctx, &sp, patch, 5, 4096, &mut counters);
+        let (e, (translation, rotation)) = (h.irradiance(), h.gradients());
         let d: f32 = 0.3;
         let form = (1.0 - d / (d * d + 1.0).sqrt()) / 2.0;
         let towards = 1.0 / (2.0 * (d * d + 1.0).powf(1.5));
         assert!(
-            (f.e.x - c.x * form).abs() < 0.01 * c.x * form,
+            (e.x - c.x * form).abs() < 0.01 * c.x * form,
             "{} vs {}",
-            f.e.x,
+            e.x,
             c.x * form
         );
-        let t = f.translation[0];
+        let t = translation[0];
         // (Measured 0.964 against 0.879: the estimator's known lean, from taking the
         // nearer of two cells' jittered distances at each border.)
         assert!(
@@ -721,13 +731,13 @@ mod tests {
         for tilt in [v(0.05, 0.0, 0.0), v(0.0, 0.05, 0.0)] {
             let n = (sp.ns + tilt).normalize();
             let want = c.x * (point_polygon_form_factor(sp.p, n, &wall) - form);
-            let got = f.rotation[0].dot(sp.ns.cross(n));
+            let got = rotation[0].dot(sp.ns.cross(n));
             assert!(
                 (got - want).abs() < 0.1 * c.x * form * 0.05 + 0.1 * want.abs(),
                 "{tilt}: {got} vs {want}"
             );
         }
         // Green and blue follow red by the wall's colour.
-        assert!((f.translation[2].x / t.x - c.z / c.x).abs() < 1e-3);
+        assert!((translation[2].x / t.x - c.z / c.x).abs() < 1e-3);
     }
 }
