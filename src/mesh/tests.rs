@@ -637,3 +637,79 @@ fn a_panel_a_centimetre_off_a_wall_covers_the_vertices_behind_it_to_its_edge() {
     // Three rows of seven vertices, the outer ones 1.7 cm inside the edges.
     assert_eq!(behind, 21);
 }
+
+/// A vertical blind: 40 curved slats 2 cm apart along x, each an arc of four facets
+/// (normals within 40 degrees of +x), 1 m tall in ten rows. Projected along x, the
+/// slats lie on top of one another: one lattice for all of them would light the
+/// slats at one end with vertices placed on the slats at the other.
+fn blind() -> TriMesh {
+    let mut m = TriMesh::default();
+    for k in 0..40 {
+        let x0 = 0.02 * k as f32;
+        // Arc points in the xz plane: angle from -40 to 40 degrees about +x.
+        let arc: Vec<Vec3> = (0..5)
+            .map(|i| {
+                let a = (-40.0f32 + 20.0 * i as f32).to_radians();
+                // Facing +x: the arc bulges towards +x.
+                v(x0 + 0.03 * a.cos(), 0.0, 0.03 * a.sin())
+            })
+            .collect();
+        for row in 0..10 {
+            let (y0, y1) = (0.1 * row as f32, 0.1 * (row + 1) as f32);
+            for i in 0..4 {
+                let (a, b) = (arc[i], arc[i + 1]);
+                let base = m.positions.len() as u32;
+                // Wound to face +x (out of the arc).
+                m.positions.extend([
+                    v(a.x, y0, a.z),
+                    v(a.x, y1, a.z),
+                    v(b.x, y1, b.z),
+                    v(b.x, y0, b.z),
+                ]);
+                let patch = m.patches.len() as u32;
+                m.patches.push(Patch::Polygon((base..base + 4).collect()));
+                m.indices.push([base, base + 1, base + 2]);
+                m.indices.push([base, base + 2, base + 3]);
+                m.tri_patch.extend([patch, patch]);
+            }
+        }
+    }
+    m
+}
+
+#[test]
+fn slats_lying_on_one_another_along_the_lattice_axis_do_not_share_vertices_across_the_blind() {
+    let mesh_size = 0.25;
+    let s = scene(vec![(blind(), Vec3::splat(0.6))], vec![], &[]);
+    let m = RadiosityMesh::build(&s, mesh_size);
+    let mut checked = 0;
+    for p in &m.patches {
+        for g in &p.grids {
+            let Domain::Lattice(lat) = &g.domain else { continue };
+            for t in &lat.surface {
+                let c = (t[0] + t[1] + t[2]) / 3.0;
+                let w = lat.interp(g.first_vertex, c);
+                for k in 0..4 {
+                    if w.weights[k] == 0.0 {
+                        continue;
+                    }
+                    let q = m.vertices[w.vertices[k] as usize].p;
+                    // A point takes its light from vertices within its own cell
+                    // (a mesh size in the plane) and within one slab of a quarter mesh
+                    // size along the axis (plus the slats' own depth).
+                    assert!(
+                        (q.x - c.x).abs() < 0.25 * mesh_size + 0.08,
+                        "a point at x = {} takes the light of a vertex at x = {}",
+                        c.x,
+                        q.x
+                    );
+                    checked += 1;
+                }
+            }
+        }
+    }
+    assert!(checked > 1000, "{checked}");
+    // Vertices still follow the area, not the 1600 facets: 1.7 m^2 of slats is
+    // about 27 elements of the mesh size (130 vertices, their corners).
+    assert!(m.vertices.len() < 300, "{}", m.vertices.len());
+}
