@@ -820,7 +820,7 @@ fn the_quality_dial_sets_both_passes_and_a_flag_wins() {
     // the solve tolerance.
     for (level, want, tolerance) in [
         ("draft", (32, 16, 1, 0), 0.01),
-        ("good", (64, 64, 2, 0), 0.01),
+        ("good", (64, 64, 2, 128), 0.01),
         ("final", (128, 256, 3, 256), 0.005),
     ] {
         let j = run(&["--quality", level]);
@@ -845,7 +845,7 @@ fn the_quality_dial_sets_both_passes_and_a_flag_wins() {
     // No flag: good.
     let j = run(&[]);
     assert_eq!(j["max_level"], 2);
-    assert_eq!(j["gather"], 0);
+    assert_eq!(j["gather"], 128);
     // Flags given on their own win.
     let j = run(&[
         "--quality",
@@ -1025,8 +1025,8 @@ fn the_display_server_gets_each_step_and_the_final_image_in_tevs_protocol() {
     assert_eq!((r.i32(), r.i32(), r.i32()), (20, 12, 3));
     assert_eq!((r.str(), r.str(), r.str()), ("R".into(), "G".into(), "B".into()));
     // The roomlet's one light, ray traced everywhere by `norm`: the solution alone,
-    // then the final image.
-    assert_eq!(packets.len(), 1 + 2, "{} packets", packets.len());
+    // the light ray traced, then the final image with `good`'s gather.
+    assert_eq!(packets.len(), 1 + 3, "{} packets", packets.len());
     let mut last = Vec::new();
     for p in &packets[1..] {
         let mut r = Reader(p, 4);

@@ -57,17 +57,18 @@ pub struct SceneArgs {
 /// | level | `--shoot-samples` | `--solve-tolerance` | `--photons` | `--max-level` | `--gather` |
 /// |---|---|---|---|---|---|
 /// | draft | 32 | 0.01 | 16 | 1 | 0 |
-/// | good | 64 | 0.01 | 64 | 2 | 0 |
+/// | good | 64 | 0.01 | 64 | 2 | 128 |
 /// | final | 128 | 0.005 | 256 | 3 | 256 |
 ///
-/// Chosen by measurement (README, "The quality dial"): `good` reaches Mitsuba 3's
-/// 64-spp FLIP in under 1/5 of its time on the Cornell box and the paper room,
-/// `final` reaches its 256-spp FLIP there, `draft` is the quickest picture.
+/// Chosen by measurement (README, "The quality dial"): `draft` is the quickest
+/// picture, `good` gathers with half the rays of `final` and already passes Mitsuba
+/// 3's 256-spp FLIP on the Cornell box and the paper room's view a, and its 64-spp
+/// FLIP on the conference room.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum Quality {
     /// The quickest picture: coarser shots, few photons, up to 4 samples per pixel.
     Draft,
-    /// The default.
+    /// The default: the paper's last step with 128 gather rays.
     #[default]
     Good,
     /// The paper's last step on: a final gather of 256 rays, finer shots carrying
@@ -104,7 +105,7 @@ impl Quality {
 
     /// Final-gather rays (`--gather`).
     pub fn gather(self) -> u32 {
-        [0, 0, 256][self as usize]
+        [0, 128, 256][self as usize]
     }
 
     /// The level's name, as on the command line.
@@ -118,7 +119,7 @@ impl Quality {
 pub struct SolveArgs {
     /// Quality dial: `draft`, `good` or `final` set --shoot-samples (32/64/128),
     /// --solve-tolerance (0.01/0.01/0.005), --photons (16/64/256), --max-level (1/2/3)
-    /// and --gather (0/0/256) at once; any of those flags given on its own wins.
+    /// and --gather (0/128/256) at once; any of those flags given on its own wins.
     #[arg(long, value_enum, default_value_t = Quality::Good)]
     pub(super) quality: Quality,
     /// Largest radiosity element edge, in scene units [default: the bounding-box
@@ -148,7 +149,7 @@ pub struct SolveArgs {
     #[arg(long, value_name = "N")]
     pub(super) photons: Option<u32>,
     /// Photons in all at most, whatever --photons asks for a large mesh (0: no cap).
-    #[arg(long, default_value_t = 3_000_000, value_name = "N")]
+    #[arg(long, default_value_t = 1_000_000, value_name = "N")]
     pub(super) max_photons: u64,
     /// Time budget of the solve in seconds: deterministic shots stop at half of it,
     /// photons at all of it (the residual reached is reported) [default: none].
@@ -439,7 +440,8 @@ pub struct ImageArgs {
     /// the light not ray traced from the patch's sources is gathered with this many
     /// cosine-distributed rays that read the radiosity solution, at a grid of the
     /// screen every 4 pixels and anew where those records do not reach (0: interpolate
-    /// the solution at the hit) [default: by --quality, 0 for good, 256 for final].
+    /// the solution at the hit) [default: by --quality, 128 for good; 0 for --method
+    /// direct and twopass].
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=4096))]
     pub(super) gather: Option<u32>,
     /// Pixel reconstruction filter.
@@ -573,9 +575,14 @@ pub(super) fn parse_define(s: &str) -> std::result::Result<(String, String), Str
 }
 
 impl ImageArgs {
-    /// Final-gather rays: the flag's, else the quality level's.
-    pub(super) fn gather(&self, quality: Quality) -> u32 {
-        self.gather.unwrap_or(quality.gather())
+    /// Final-gather rays: the flag's, else the quality level's for the methods that
+    /// ray trace sources over the solution (`direct` has no solution to gather from,
+    /// and `twopass` is the mesh alone, the paper's Fig. 7).
+    pub(super) fn gather(&self, quality: Quality, method: Method) -> u32 {
+        self.gather.unwrap_or(match method {
+            Method::Norm | Method::Local | Method::Global => quality.gather(),
+            Method::Direct | Method::Twopass => 0,
+        })
     }
 }
 
@@ -594,7 +601,7 @@ impl RenderArgs {
             seed: image.seed,
             area_samples: image.area_samples,
             max_depth: image.max_depth,
-            gather: image.gather(self.solve.quality),
+            gather: image.gather(self.solve.quality, self.method),
             filter: image.filter,
             sampler,
             refine,

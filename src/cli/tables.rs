@@ -64,7 +64,9 @@ pub(super) fn cmd_tables(a: TablesArgs) -> Result<()> {
             seed: a.image.seed,
             area_samples: a.image.area_samples,
             max_depth: a.image.max_depth,
-            gather: a.image.gather(a.solve.quality),
+            // The paper's tables are of its method before the last step: a gather
+            // only when asked for.
+            gather: a.image.gather.unwrap_or(0),
             filter: a.image.filter,
             max_level: refine.max_level,
             contrast: a.refine.contrast,
