@@ -660,12 +660,8 @@ fn blind() -> TriMesh {
                 let (a, b) = (arc[i], arc[i + 1]);
                 let base = m.positions.len() as u32;
                 // Wound to face +x (out of the arc).
-                m.positions.extend([
-                    v(a.x, y0, a.z),
-                    v(a.x, y1, a.z),
-                    v(b.x, y1, b.z),
-                    v(b.x, y0, b.z),
-                ]);
+                m.positions
+                    .extend([v(a.x, y0, a.z), v(a.x, y1, a.z), v(b.x, y1, b.z), v(b.x, y0, b.z)]);
                 let patch = m.patches.len() as u32;
                 m.patches.push(Patch::Polygon((base..base + 4).collect()));
                 m.indices.push([base, base + 1, base + 2]);

@@ -46,6 +46,19 @@ mod transfer;
 pub use form_factor::{point_polygon_form_factor, quarter_form_factors};
 use shot::{Levels, ShootPoint, Touching, FIRST_LIGHT_RAYS};
 
+/// What a ray of a deterministic patch shot is worth in photon rays: a patch shot that
+/// casts rays goes ahead only while it carries at least 1 / `SHOT_RAY_WORTH` of the
+/// power per ray that the photons will carry per ray (the unshot power over their
+/// rays), else the photons take the rest. A shot leaves no noise and no deposit's
+/// bias, so it is worth more than a photon's ray; but where every shot reaches a
+/// large mesh (the conference room's 208 k vertices, 5-12 M rays a shot for 2-4 % of
+/// the power) the photons carry it for a fiftieth of the rays. Shots' power per ray
+/// against the photons' at the time (the photons' share per ray over the shot's):
+/// Cornell box 0.2-0.5, paper room 0.3-0.6, conference room 15-40; so 8 keeps every
+/// shot of the first two and none of the third (conference `good`: solve 11.6 s ->
+/// 2.5 s, FLIP 0.0331 -> 0.0340).
+const SHOT_RAY_WORTH: f64 = 8.0;
+
 /// What shot light: a light source of the scene or a radiant patch of the mesh.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
 pub enum SourceId {
@@ -337,6 +350,11 @@ fn solve_inner(
         emitted
     };
     s.stats.reference_power = reference;
+    // What the photons will cost (two rays a photon, about), and what a shot cost
+    // per receiving vertex last time.
+    let receiving = s.receiving();
+    let photon_rays = 2.0 * s.planned_photons(receiving) as f64;
+    let mut rays_per_receiver: Option<f64> = None;
     loop {
         let total: f64 = patch_power.iter().sum();
         s.stats.residual = if reference > 0.0 { total / reference } else { 0.0 };
@@ -352,9 +370,17 @@ fn solve_inner(
         // holds at least `tolerance` of the reference power.
         let out_of_time = budget > 0.0 && start.elapsed().as_secs_f64() > shots_budget;
         let weak = settings.photons > 0 && !(best_power > settings.tolerance as f64 * reference);
+        // A shot that casts rays (not one that reuses its kept first shot) must carry
+        // at least 1 / SHOT_RAY_WORTH of the power per ray that the photons will carry
+        // per ray of theirs: where it would cost far more, the photons take the rest.
+        let rays_before = rays_per_receiver.unwrap_or(settings.shoot_samples as f64) * receiving as f64;
+        let dear = photon_rays > 0.0
+            && s.kept.get(best).is_none()
+            && best_power * photon_rays * SHOT_RAY_WORTH < total * rays_before;
         if !(s.stats.residual > settings.tolerance as f64)
             || s.stats.patch_shots >= settings.max_shots as u64
             || weak
+            || dear
             || out_of_time
         {
             s.stats.timed_out |= out_of_time;
@@ -366,7 +392,11 @@ fn solve_inner(
         for u in &mut s.unshot[first..first + count] {
             *u = Vec3::ZERO;
         }
+        let (rays, reuse) = (s.stats.rays, s.kept.get(best).is_some());
         let touched = s.shoot_patch(best, &levels);
+        if !reuse {
+            rays_per_receiver = Some((s.stats.rays - rays) as f64 / receiving.max(1) as f64);
+        }
         s.stats.patch_shots += 1;
         patch_power[best] = 0.0;
         for p in touched {
@@ -539,18 +569,29 @@ impl Solver<'_> {
 
     /// The stochastic part: photons carry what the deterministic shots left unshot
     /// (see [`photons`]). `trace` records the sources folded into general radiosity.
-    fn photons(&mut self, start: Instant, budget: f64, progress: &dyn Progress, trace: bool) {
-        let nv = self.mesh.vertices.len();
-        let receiving = self
-            .mesh
+    /// Vertices of surfaces that reflect.
+    fn receiving(&self) -> u64 {
+        self.mesh
             .vertices
             .iter()
             .filter(|v| self.mesh.patches[v.patch as usize].reflectance.max_element() > 0.0)
-            .count() as u64;
-        let mut n = u64::from(self.settings.photons) * receiving;
+            .count() as u64
+    }
+
+    /// Photons the solve will trace: `--photons` per receiving vertex, at most
+    /// `--max-photons`.
+    fn planned_photons(&self, receiving: u64) -> u64 {
+        let n = u64::from(self.settings.photons) * receiving;
         if self.settings.max_photons > 0 {
-            n = n.min(self.settings.max_photons);
+            n.min(self.settings.max_photons)
+        } else {
+            n
         }
+    }
+
+    fn photons(&mut self, start: Instant, budget: f64, progress: &dyn Progress, trace: bool) {
+        let nv = self.mesh.vertices.len();
+        let n = self.planned_photons(self.receiving());
         let (emit, emit_power) = photons::Tracer::emitters(&self.mesh, &self.unshot);
         let powers: Vec<f64> = self
             .scene

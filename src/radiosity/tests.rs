@@ -834,3 +834,49 @@ fn the_tolerance_is_a_fraction_of_the_power_reaching_reflecting_surfaces() {
     );
     assert!(sol.stats.patch_shots >= 1, "{:?}", sol.stats);
 }
+
+/// Where a patch shot would cast far more rays for the power it carries than the
+/// photons will (a fine mesh, few photons), the photons carry all that the light's
+/// shot leaves, and everything emitted is still absorbed; with photons enough for
+/// the mesh, the patches shoot.
+#[test]
+fn patch_shots_give_way_to_photons_where_they_cost_far_more_rays() {
+    let rho = 0.6;
+    let faces = box_inside(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.5));
+    let light = Light::Point {
+        position: Vec3::new(0.7, 0.6, 0.5),
+        intensity: Vec3::splat(3.0),
+    };
+    let s = scene(
+        faces.into_iter().map(|f| (f, Vec3::splat(rho))).collect(),
+        vec![light],
+        &[],
+    );
+    let bvh = Bvh::build(&s);
+    let mut st = settings(0.05, 32, 5);
+    st.tolerance = 0.01;
+    st.photons = 64;
+    // About 5,600 vertices: a patch shot casts some 100 k rays for a sixth of the
+    // power at most; 15 k photons cast some 30 k rays for all of it.
+    st.max_photons = 15_000;
+    let a = solve(&s, &bvh, &st, &Silent).unwrap();
+    assert!(a.mesh.vertices.len() > 5000, "{}", a.mesh.vertices.len());
+    assert_eq!((a.stats.light_shots, a.stats.patch_shots), (1, 0));
+    assert_eq!(a.stats.photons, 15_000);
+    let absorbed: f64 = a
+        .mesh
+        .vertices
+        .iter()
+        .zip(&a.total())
+        .map(|(v, b)| (b.x / rho * (1.0 - rho) * v.area) as f64)
+        .sum();
+    let emitted = a.stats.emitted_power;
+    assert!(
+        (absorbed - emitted).abs() < 0.03 * emitted,
+        "{absorbed} vs {emitted}"
+    );
+    // 64 photons a vertex: the shots cost no more per unit of power than the photons.
+    st.max_photons = 0;
+    let b = solve(&s, &bvh, &st, &Silent).unwrap();
+    assert_eq!(b.stats.patch_shots, 5);
+}
