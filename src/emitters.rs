@@ -443,24 +443,45 @@ pub fn sub_source_uv(start: u32, end: u32, n: u32, xi: [f32; 3]) -> Vec2 {
     )
 }
 
-/// Cell `(x, y)` visited `d`-th by the Hilbert curve over a `2^order` square grid.
-pub fn hilbert_d2xy(order: u32, d: u64) -> (u32, u32) {
-    let (mut x, mut y, mut t) = (0u32, 0u32, d);
-    let mut s = 1u32;
-    while order > 0 && s < (1u32 << order) {
-        let rx = (1 & (t / 2)) as u32;
-        let ry = (1 & (t ^ rx as u64)) as u32;
-        if ry == 0 {
-            if rx == 1 {
-                x = s - 1 - x;
-                y = s - 1 - y;
+/// One step of the Hilbert curve from its top level down: entry `state << 2 | q` for
+/// the quadrant digit `q` (two bits of the curve's index) gives the cell's x bit (bit
+/// 0), its y bit (bit 1) and the next state (bits 2-3). A state is how the levels
+/// above turned the square: bit 0 swaps x and y, bit 1 mirrors both; a digit whose
+/// y bit is 0 turns the rest (swap, and mirror too where its x bit is 1), and turns
+/// compose by xor (swapping and mirroring both commute).
+const HILBERT_STEP: [u8; 16] = {
+    let mut t = [0u8; 16];
+    let mut state = 0;
+    while state < 4 {
+        let mut q = 0;
+        while q < 4 {
+            let rx = (q >> 1) & 1;
+            let ry = (q ^ rx) & 1;
+            let (mut a, mut b) = if state & 1 == 1 { (ry, rx) } else { (rx, ry) };
+            if state & 2 == 2 {
+                a ^= 1;
+                b ^= 1;
             }
-            std::mem::swap(&mut x, &mut y);
+            let turn = if ry == 0 { 1 | rx << 1 } else { 0 };
+            t[state << 2 | q] = (a | b << 1 | (state ^ turn) << 2) as u8;
+            q += 1;
         }
-        x += s * rx;
-        y += s * ry;
-        t /= 4;
-        s *= 2;
+        state += 1;
+    }
+    t
+};
+
+/// Cell `(x, y)` visited `d`-th by the Hilbert curve over a `2^order` square grid
+/// (the curve of Wikipedia's `d2xy`, walked from the top level down by a table: the
+/// area lights' sub-source points take one per shadow-ray candidate, and the
+/// arithmetic walk was a seventh of the Cornell box's render).
+pub fn hilbert_d2xy(order: u32, d: u64) -> (u32, u32) {
+    let (mut x, mut y, mut state) = (0u32, 0u32, 0usize);
+    for level in (0..order).rev() {
+        let e = HILBERT_STEP[state << 2 | ((d >> (2 * level)) & 3) as usize];
+        x = x << 1 | u32::from(e & 1);
+        y = y << 1 | u32::from(e >> 1 & 1);
+        state = usize::from(e >> 2);
     }
     (x, y)
 }
@@ -536,18 +557,56 @@ mod tests {
 
     #[test]
     fn hilbert_curve_visits_every_cell_once_in_adjacent_steps() {
-        let order = 3;
-        let mut seen = [[false; 8]; 8];
-        let mut last = None;
-        for d in 0..64 {
-            let (x, y) = hilbert_d2xy(order, d);
-            assert!(!seen[x as usize][y as usize]);
-            seen[x as usize][y as usize] = true;
-            if let Some((lx, ly)) = last {
-                let step = (x as i32 - lx as i32).abs() + (y as i32 - ly as i32).abs();
-                assert_eq!(step, 1, "step {d}");
+        for order in 1..=6u32 {
+            let side = 1usize << order;
+            let mut seen = vec![false; side * side];
+            let mut last = None;
+            for d in 0..(side * side) as u64 {
+                let (x, y) = hilbert_d2xy(order, d);
+                assert!(!seen[x as usize * side + y as usize], "order {order}, d {d}");
+                seen[x as usize * side + y as usize] = true;
+                if let Some((lx, ly)) = last {
+                    let step = (x as i32 - lx as i32).abs() + (y as i32 - ly as i32).abs();
+                    assert_eq!(step, 1, "order {order}, step {d}");
+                }
+                last = Some((x, y));
             }
-            last = Some((x, y));
+            // From one corner to the next along x.
+            assert_eq!(hilbert_d2xy(order, 0), (0, 0));
+            assert_eq!(last, Some((side as u32 - 1, 0)), "order {order}");
+        }
+    }
+
+    /// The table walk is Wikipedia's `d2xy` (the curve the sub-sources have always
+    /// followed, so images do not change), written out here the arithmetic way.
+    #[test]
+    fn hilbert_table_walk_is_the_textbook_curve() {
+        fn d2xy(order: u32, d: u64) -> (u32, u32) {
+            let (mut x, mut y, mut t, mut s) = (0u32, 0u32, d, 1u32);
+            while s < (1u32 << order) {
+                let rx = (1 & (t / 2)) as u32;
+                let ry = (1 & (t ^ rx as u64)) as u32;
+                if ry == 0 {
+                    if rx == 1 {
+                        x = s - 1 - x;
+                        y = s - 1 - y;
+                    }
+                    std::mem::swap(&mut x, &mut y);
+                }
+                x += s * rx;
+                y += s * ry;
+                t /= 4;
+                s *= 2;
+            }
+            (x, y)
+        }
+        for order in 0..=8u32 {
+            for d in 0..1u64 << (2 * order) {
+                assert_eq!(hilbert_d2xy(order, d), d2xy(order, d), "order {order}, d {d}");
+            }
+        }
+        for d in [0, 1, 12345, 1 << 31, (1u64 << 32) - 1] {
+            assert_eq!(hilbert_d2xy(16, d), d2xy(16, d), "order 16, d {d}");
         }
     }
 
