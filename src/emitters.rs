@@ -471,17 +471,42 @@ const HILBERT_STEP: [u8; 16] = {
     t
 };
 
+/// Two steps of [`HILBERT_STEP`] at once: entry `state << 4 | qq` for the digits `qq`
+/// (four bits, the upper level's first) gives x's two bits (bits 0-1), y's (bits 2-3)
+/// and the state after both (bits 4-5).
+const HILBERT_STEP2: [u8; 64] = {
+    let mut t = [0u8; 64];
+    let mut i = 0;
+    while i < 64 {
+        let (state, qq) = (i >> 4, i & 15);
+        let e1 = HILBERT_STEP[state << 2 | qq >> 2];
+        let e2 = HILBERT_STEP[(e1 >> 2) as usize * 4 + (qq & 3)];
+        let x = (e1 & 1) << 1 | (e2 & 1);
+        let y = (e1 >> 1 & 1) << 1 | (e2 >> 1 & 1);
+        t[i] = x | y << 2 | (e2 >> 2) << 4;
+        i += 1;
+    }
+    t
+};
+
 /// Cell `(x, y)` visited `d`-th by the Hilbert curve over a `2^order` square grid
-/// (the curve of Wikipedia's `d2xy`, walked from the top level down by a table: the
-/// area lights' sub-source points take one per shadow-ray candidate, and the
-/// arithmetic walk was a seventh of the Cornell box's render).
+/// (the curve of Wikipedia's `d2xy`, walked from the top level down by tables, two
+/// levels a step: the area lights' sub-source points take one per shadow-ray
+/// candidate, and the arithmetic walk was a seventh of the Cornell box's render).
 pub fn hilbert_d2xy(order: u32, d: u64) -> (u32, u32) {
     let (mut x, mut y, mut state) = (0u32, 0u32, 0usize);
-    for level in (0..order).rev() {
-        let e = HILBERT_STEP[state << 2 | ((d >> (2 * level)) & 3) as usize];
-        x = x << 1 | u32::from(e & 1);
-        y = y << 1 | u32::from(e >> 1 & 1);
-        state = usize::from(e >> 2);
+    let mut level = order;
+    if level % 2 == 1 {
+        level -= 1;
+        let e = HILBERT_STEP[((d >> (2 * level)) & 3) as usize];
+        (x, y, state) = (u32::from(e & 1), u32::from(e >> 1 & 1), usize::from(e >> 2));
+    }
+    while level > 0 {
+        level -= 2;
+        let e = HILBERT_STEP2[state << 4 | ((d >> (2 * level)) & 15) as usize];
+        x = x << 2 | u32::from(e & 3);
+        y = y << 2 | u32::from(e >> 2 & 3);
+        state = usize::from(e >> 4);
     }
     (x, y)
 }
