@@ -821,7 +821,7 @@ fn the_quality_dial_sets_both_passes_and_a_flag_wins() {
     for (level, want, tolerance) in [
         ("draft", (32, 16, 1, 0), 0.01),
         ("good", (64, 64, 2, 128), 0.01),
-        ("final", (128, 256, 3, 256), 0.005),
+        ("final", (128, 256, 3, 512), 0.005),
     ] {
         let j = run(&["--quality", level]);
         let got = (
