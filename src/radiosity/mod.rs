@@ -48,15 +48,18 @@ use shot::{Levels, ShootPoint, Touching, FIRST_LIGHT_RAYS};
 
 /// What a ray of a deterministic patch shot is worth in photon rays: a patch shot that
 /// casts rays goes ahead only while it carries at least 1 / `SHOT_RAY_WORTH` of the
-/// power per ray that the photons will carry per ray (the unshot power over their
-/// rays), else the photons take the rest. A shot leaves no noise and no deposit's
-/// bias, so it is worth more than a photon's ray; but where every shot reaches a
-/// large mesh (the conference room's 208 k vertices, 5-12 M rays a shot for 2-4 % of
-/// the power) the photons carry it for a fiftieth of the rays. Shots' power per ray
-/// against the photons' at the time (the photons' share per ray over the shot's):
-/// Cornell box 0.2-0.5, paper room 0.3-0.6, conference room 15-40; so 8 keeps every
-/// shot of the first two and none of the third (conference `good`: solve 11.6 s ->
-/// 2.5 s, FLIP 0.0331 -> 0.0340).
+/// power per ray that the photon budget (`--max-photons`, two rays a photon) would
+/// carry per ray (all the unshot power over its rays), else the photons take the
+/// rest. A shot leaves no noise and no deposit's bias, so it is worth more than a
+/// photon's ray; but where every shot reaches a large mesh (the conference room's
+/// 208 k vertices, 5-12 M rays a shot for 2-4 % of the power) the photons carry it
+/// for a fiftieth of the rays. The budget, not the photons a level asks for, is the
+/// yardstick: `draft`'s 16 photons a vertex would make photons look cheap where they
+/// are only few (the Cornell box's `draft` lost its shots: FLIP 0.0283 -> 0.0463).
+/// Shots' power per ray against the budget's at the time (the budget's over the
+/// shot's): Cornell box and paper room 3 at most, conference room 15-40; so 8 keeps
+/// every shot of the first two and none of the third (conference `good`: solve
+/// 11.6 s -> 2.5 s, FLIP 0.0331 -> 0.0340). No budget (`--max-photons 0`), no rule.
 const SHOT_RAY_WORTH: f64 = 8.0;
 
 /// What shot light: a light source of the scene or a radiant patch of the mesh.
@@ -350,10 +353,14 @@ fn solve_inner(
         emitted
     };
     s.stats.reference_power = reference;
-    // What the photons will cost (two rays a photon, about), and what a shot cost
+    // What the photon budget costs (two rays a photon, about), and what a shot cost
     // per receiving vertex last time.
     let receiving = s.receiving();
-    let photon_rays = 2.0 * s.planned_photons(receiving) as f64;
+    let photon_rays = if settings.photons > 0 {
+        2.0 * settings.max_photons as f64
+    } else {
+        0.0
+    };
     let mut rays_per_receiver: Option<f64> = None;
     loop {
         let total: f64 = patch_power.iter().sum();
@@ -371,8 +378,8 @@ fn solve_inner(
         let out_of_time = budget > 0.0 && start.elapsed().as_secs_f64() > shots_budget;
         let weak = settings.photons > 0 && !(best_power > settings.tolerance as f64 * reference);
         // A shot that casts rays (not one that reuses its kept first shot) must carry
-        // at least 1 / SHOT_RAY_WORTH of the power per ray that the photons will carry
-        // per ray of theirs: where it would cost far more, the photons take the rest.
+        // at least 1 / SHOT_RAY_WORTH of the power per ray that the photon budget
+        // would: where it would cost far more, the photons take the rest.
         let rays_before = rays_per_receiver.unwrap_or(settings.shoot_samples as f64) * receiving as f64;
         let dear = photon_rays > 0.0
             && s.kept.get(best).is_none()

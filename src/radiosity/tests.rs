@@ -875,7 +875,11 @@ fn patch_shots_give_way_to_photons_where_they_cost_far_more_rays() {
         (absorbed - emitted).abs() < 0.03 * emitted,
         "{absorbed} vs {emitted}"
     );
-    // 64 photons a vertex: the shots cost no more per unit of power than the photons.
+    // With a budget of 64 photons a vertex the shots cost no more per unit of power
+    // than the photons, and with none (no cap) the rule is off: the patches shoot.
+    st.max_photons = 64 * a.mesh.vertices.len() as u64;
+    let b = solve(&s, &bvh, &st, &Silent).unwrap();
+    assert_eq!(b.stats.patch_shots, 5);
     st.max_photons = 0;
     let b = solve(&s, &bvh, &st, &Silent).unwrap();
     assert_eq!(b.stats.patch_shots, 5);
