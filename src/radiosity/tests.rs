@@ -31,6 +31,31 @@ fn patch_mean(sol: &Solution, total: &[Rgb], p: usize) -> f32 {
     s / a
 }
 
+/// A closed 2 x 1 x 1.5 box of reflectance `rho` lit by a point light of 3 W/sr.
+fn lit_box(rho: f32) -> Scene {
+    let faces = box_inside(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.5));
+    let light = Light::Point {
+        position: Vec3::new(0.7, 0.6, 0.5),
+        intensity: Vec3::splat(3.0),
+    };
+    scene(
+        faces.into_iter().map(|f| (f, Vec3::splat(rho))).collect(),
+        vec![light],
+        &[],
+    )
+}
+
+/// The power absorbed by surfaces of reflectance `rho` (red channel), from their
+/// total radiosity.
+fn absorbed_power(sol: &Solution, rho: f32) -> f64 {
+    sol.mesh
+        .vertices
+        .iter()
+        .zip(&sol.total())
+        .map(|(v, b)| (b.x / rho * (1.0 - rho) * v.area) as f64)
+        .sum()
+}
+
 /// Form factor from receiver B (shape 0, reflectance 1) to emitter A (shape 1,
 /// radiosity 1): the mean radiosity B gets from one light shot.
 fn form_factor(receiver: [Vec3; 4], emitter: [Vec3; 4]) -> f32 {
@@ -271,27 +296,11 @@ fn cells_at_a_shadows_edge_are_sampled_again() {
 #[test]
 fn energy_is_conserved_in_a_closed_box() {
     let rho = 0.6;
-    let faces = box_inside(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.5));
-    let light = Light::Point {
-        position: Vec3::new(0.7, 0.6, 0.5),
-        intensity: Vec3::splat(3.0),
-    };
-    let s = scene(
-        faces.into_iter().map(|f| (f, Vec3::splat(rho))).collect(),
-        vec![light],
-        &[],
-    );
+    let s = lit_box(rho);
     let mut st = settings(0.1, 32, 300);
     st.tolerance = 0.02;
     let sol = solve(&s, &Bvh::build(&s), &st, &Silent).unwrap();
-    let total = sol.total();
-    let absorbed: f64 = sol
-        .mesh
-        .vertices
-        .iter()
-        .zip(&total)
-        .map(|(v, b)| (b.x / rho * (1.0 - rho) * v.area) as f64)
-        .sum();
+    let absorbed = absorbed_power(&sol, rho);
     let unshot = sol.stats.residual * sol.stats.emitted_power;
     let emitted = sol.stats.emitted_power;
     assert!((emitted - 4.0 * std::f64::consts::PI * 3.0).abs() < 1e-3);
@@ -488,16 +497,7 @@ fn point_light_over_a_merged_plane_matches_the_closed_form() {
 #[test]
 fn photons_give_the_same_solution_at_one_and_two_threads_and_conserve_energy() {
     let rho = 0.6;
-    let faces = box_inside(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.5));
-    let light = Light::Point {
-        position: Vec3::new(0.7, 0.6, 0.5),
-        intensity: Vec3::splat(3.0),
-    };
-    let s = scene(
-        faces.into_iter().map(|f| (f, Vec3::splat(rho))).collect(),
-        vec![light],
-        &[],
-    );
+    let s = lit_box(rho);
     let bvh = Bvh::build(&s);
     let mut st = settings(0.1, 16, 3);
     st.tolerance = 0.02;
@@ -512,14 +512,7 @@ fn photons_give_the_same_solution_at_one_and_two_threads_and_conserve_energy() {
     assert_eq!(a.lists, b.lists);
     assert!(a.stats.photons > 0 && a.stats.patch_shots == 3);
     // Everything emitted is absorbed: rho / (1 - rho) of the direct light comes back.
-    let total = a.total();
-    let absorbed: f64 = a
-        .mesh
-        .vertices
-        .iter()
-        .zip(&total)
-        .map(|(v, b)| (b.x / rho * (1.0 - rho) * v.area) as f64)
-        .sum();
+    let absorbed = absorbed_power(&a, rho);
     let emitted = a.stats.emitted_power;
     assert!(
         (absorbed - emitted).abs() < 0.02 * emitted,
@@ -531,13 +524,7 @@ fn photons_give_the_same_solution_at_one_and_two_threads_and_conserve_energy() {
     st.max_photons = asked / 10;
     let c = solve(&s, &bvh, &st, &Silent).unwrap();
     assert_eq!(c.stats.photons, asked / 10);
-    let absorbed: f64 = c
-        .mesh
-        .vertices
-        .iter()
-        .zip(&c.total())
-        .map(|(v, b)| (b.x / rho * (1.0 - rho) * v.area) as f64)
-        .sum();
+    let absorbed = absorbed_power(&c, rho);
     assert!(
         (absorbed - emitted).abs() < 0.03 * emitted,
         "capped: {absorbed} vs {emitted}"
@@ -836,22 +823,13 @@ fn the_tolerance_is_a_fraction_of_the_power_reaching_reflecting_surfaces() {
 }
 
 /// Where a patch shot would cast far more rays for the power it carries than the
-/// photons will (a fine mesh, few photons), the photons carry all that the light's
-/// shot leaves, and everything emitted is still absorbed; with photons enough for
-/// the mesh, the patches shoot.
+/// photon budget would (a fine mesh, a small `max_photons`), the photons carry all
+/// that the light's shot leaves, and everything emitted is still absorbed; with a
+/// budget of photons enough for the mesh, or none, the patches shoot.
 #[test]
 fn patch_shots_give_way_to_photons_where_they_cost_far_more_rays() {
     let rho = 0.6;
-    let faces = box_inside(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.5));
-    let light = Light::Point {
-        position: Vec3::new(0.7, 0.6, 0.5),
-        intensity: Vec3::splat(3.0),
-    };
-    let s = scene(
-        faces.into_iter().map(|f| (f, Vec3::splat(rho))).collect(),
-        vec![light],
-        &[],
-    );
+    let s = lit_box(rho);
     let bvh = Bvh::build(&s);
     let mut st = settings(0.05, 32, 5);
     st.tolerance = 0.01;
@@ -863,13 +841,7 @@ fn patch_shots_give_way_to_photons_where_they_cost_far_more_rays() {
     assert!(a.mesh.vertices.len() > 5000, "{}", a.mesh.vertices.len());
     assert_eq!((a.stats.light_shots, a.stats.patch_shots), (1, 0));
     assert_eq!(a.stats.photons, 15_000);
-    let absorbed: f64 = a
-        .mesh
-        .vertices
-        .iter()
-        .zip(&a.total())
-        .map(|(v, b)| (b.x / rho * (1.0 - rho) * v.area) as f64)
-        .sum();
+    let absorbed = absorbed_power(&a, rho);
     let emitted = a.stats.emitted_power;
     assert!(
         (absorbed - emitted).abs() < 0.03 * emitted,
