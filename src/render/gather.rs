@@ -413,7 +413,10 @@ impl Gather {
             let key = (level, (sp.p / h).floor().as_ivec3().to_array());
             for &i in self.grid.get(&key).map_or(&[][..], |v| v.as_slice()) {
                 let r = &self.records[i as usize];
-                if r.patch != patch {
+                // Out of reach (the distance alone makes the error too large): most
+                // candidates, rejected before the square roots.
+                let reach = ACCURACY * r.radius;
+                if r.patch != patch || (sp.p - r.p).length_squared() >= reach * reach {
                     continue;
                 }
                 let err = (sp.p - r.p).length() / r.radius + (1.0 - sp.ns.dot(r.n)).max(0.0).sqrt();
