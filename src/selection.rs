@@ -61,6 +61,13 @@ impl Method {
         Method::Global,
     ];
 
+    /// Whether the method ray traces sources over a radiosity solution (`norm`,
+    /// `local`, `global`): the pictures the paper's last step, the final gather,
+    /// refines. `direct` has no solution, and `twopass` is the mesh alone (Fig. 7).
+    pub fn ray_traces_over_solution(self) -> bool {
+        matches!(self, Method::Norm | Method::Local | Method::Global)
+    }
+
     /// The name used on the command line and in the statistics.
     pub fn name(self) -> &'static str {
         match self {
@@ -261,6 +268,30 @@ impl<'a> Selection<'a> {
     pub fn picks(&self, p: u32) -> &[Pick] {
         let (a, b) = (self.offsets[p as usize], self.offsets[p as usize + 1]);
         &self.picks[a as usize..b as usize]
+    }
+
+    /// The sources ray traced on patch `p`, by their ids.
+    pub fn picked(&self, p: u32) -> impl Iterator<Item = SourceId> + '_ {
+        self.picks(p).iter().map(|k| self.sources[k.source as usize])
+    }
+
+    /// Per vertex, the stored (occluded) contributions of the sources listed on its
+    /// patch that `which` accepts and that the patch does not ray trace: the part of
+    /// [`Selection::stored`] that they make up.
+    pub fn unpicked_stored(&self, which: impl Fn(SourceId) -> bool) -> Vec<Rgb> {
+        let sol = self.solution;
+        let mut out = vec![Rgb::ZERO; sol.general.len()];
+        for (p, list) in sol.lists.iter().enumerate() {
+            let first = sol.mesh.patches[p].first_vertex as usize;
+            for e in list {
+                if which(e.source) && !self.picked(p as u32).any(|s| s == e.source) {
+                    for (o, c) in out[first..].iter_mut().zip(&e.occluded) {
+                        *o += *c;
+                    }
+                }
+            }
+        }
+        out
     }
 
     /// Shadow rays per hit on patch `p` (all sources together).

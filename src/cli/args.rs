@@ -579,13 +579,14 @@ pub(super) fn parse_define(s: &str) -> std::result::Result<(String, String), Str
 
 impl ImageArgs {
     /// Final-gather rays: the flag's, else the quality level's for the methods that
-    /// ray trace sources over the solution (`direct` has no solution to gather from,
-    /// and `twopass` is the mesh alone, the paper's Fig. 7).
+    /// ray trace sources over the solution ([`Method::ray_traces_over_solution`]).
     pub(super) fn gather(&self, quality: Quality, method: Method) -> u32 {
-        self.gather.unwrap_or(match method {
-            Method::Norm | Method::Local | Method::Global => quality.gather(),
-            Method::Direct | Method::Twopass => 0,
-        })
+        let dial = if method.ray_traces_over_solution() {
+            quality.gather()
+        } else {
+            0
+        };
+        self.gather.unwrap_or(dial)
     }
 }
 

@@ -31,16 +31,21 @@ pub fn point_polygon_form_factor(x: Vec3, n: Vec3, poly: &[Vec3]) -> f32 {
     for (ri, c) in r.iter_mut().zip(&clipped[..len]) {
         *ri = (*c - x).normalize_or_zero();
     }
-    let mut sum = 0.0;
-    for i in 0..len {
-        let (ri, rj) = (r[i], r[(i + 1) % len]);
-        let c = ri.cross(rj);
-        let l = c.length();
-        if l > 1e-12 {
-            sum += n.dot(c / l) * angle(l, ri.dot(rj));
-        }
-    }
+    let sum: f32 = (0..len).map(|i| edge_term(n, r[i], r[(i + 1) % len])).sum();
     sum.abs() / (2.0 * std::f32::consts::PI)
+}
+
+/// Lambert's signed term of the polygon edge from unit vector `a` to unit vector `b`
+/// (seen from the receiver, normal `n`): the edge's angle times the cosine of its
+/// plane's normal with `n`.
+fn edge_term(n: Vec3, a: Vec3, b: Vec3) -> f32 {
+    let c = a.cross(b);
+    let l = c.length();
+    if l > 1e-12 {
+        n.dot(c / l) * angle(l, a.dot(b))
+    } else {
+        0.0
+    }
 }
 
 /// The form factors from `x` (unit normal `n`) to the four quarters of the triangle
@@ -54,16 +59,7 @@ pub fn quarter_form_factors(x: Vec3, n: Vec3, poly: &[Vec3]) -> Option<[f32; 4]>
         return None;
     }
     let unit = |c: Vec3| (c - x).normalize_or_zero();
-    // The signed Lambert term of the edge a -> b.
-    let term = |a: Vec3, b: Vec3| {
-        let c = a.cross(b);
-        let l = c.length();
-        if l > 1e-12 {
-            n.dot(c / l) * angle(l, a.dot(b))
-        } else {
-            0.0
-        }
-    };
+    let term = |a: Vec3, b: Vec3| edge_term(n, a, b);
     let k = 1.0 / (2.0 * std::f32::consts::PI);
     let q = match *poly {
         [c0, c1, c2] => {

@@ -380,10 +380,10 @@ fn solve_inner(
         // A shot that casts rays (not one that reuses its kept first shot) must carry
         // at least 1 / SHOT_RAY_WORTH of the power per ray that the photon budget
         // would: where it would cost far more, the photons take the rest.
+        let reuses = s.kept.get(best).is_some();
         let rays_before = rays_per_receiver.unwrap_or(settings.shoot_samples as f64) * receiving as f64;
-        let dear = photon_rays > 0.0
-            && s.kept.get(best).is_none()
-            && best_power * photon_rays * SHOT_RAY_WORTH < total * rays_before;
+        let dear =
+            photon_rays > 0.0 && !reuses && best_power * photon_rays * SHOT_RAY_WORTH < total * rays_before;
         if !(s.stats.residual > settings.tolerance as f64)
             || s.stats.patch_shots >= settings.max_shots as u64
             || weak
@@ -399,9 +399,9 @@ fn solve_inner(
         for u in &mut s.unshot[first..first + count] {
             *u = Vec3::ZERO;
         }
-        let (rays, reuse) = (s.stats.rays, s.kept.get(best).is_some());
+        let rays = s.stats.rays;
         let touched = s.shoot_patch(best, &levels);
-        if !reuse {
+        if !reuses {
             rays_per_receiver = Some((s.stats.rays - rays) as f64 / receiving.max(1) as f64);
         }
         s.stats.patch_shots += 1;
@@ -411,7 +411,7 @@ fn solve_inner(
         }
     }
     if settings.photons > 0 && (s.stats.residual > 0.0 || photons::has_mirrors(scene)) {
-        s.photons(start, budget, progress, trace);
+        s.photons(receiving, start, budget, progress, trace);
     }
     progress.finish();
     s.stats.time_s = start.elapsed().as_secs_f64();
@@ -574,8 +574,6 @@ impl Solver<'_> {
             .collect()
     }
 
-    /// The stochastic part: photons carry what the deterministic shots left unshot
-    /// (see [`photons`]). `trace` records the sources folded into general radiosity.
     /// Vertices of surfaces that reflect.
     fn receiving(&self) -> u64 {
         self.mesh
@@ -585,20 +583,16 @@ impl Solver<'_> {
             .count() as u64
     }
 
-    /// Photons the solve will trace: `--photons` per receiving vertex, at most
-    /// `--max-photons`.
-    fn planned_photons(&self, receiving: u64) -> u64 {
-        let n = u64::from(self.settings.photons) * receiving;
-        if self.settings.max_photons > 0 {
-            n.min(self.settings.max_photons)
-        } else {
-            n
-        }
-    }
-
-    fn photons(&mut self, start: Instant, budget: f64, progress: &dyn Progress, trace: bool) {
+    /// The stochastic part: photons carry what the deterministic shots left unshot
+    /// (see [`photons`]), `--photons` per receiving vertex (`receiving` of them), at
+    /// most `--max-photons`. `trace` records the sources folded into general
+    /// radiosity.
+    fn photons(&mut self, receiving: u64, start: Instant, budget: f64, progress: &dyn Progress, trace: bool) {
         let nv = self.mesh.vertices.len();
-        let n = self.planned_photons(self.receiving());
+        let mut n = u64::from(self.settings.photons) * receiving;
+        if self.settings.max_photons > 0 {
+            n = n.min(self.settings.max_photons);
+        }
         let (emit, emit_power) = photons::Tracer::emitters(&self.mesh, &self.unshot);
         let powers: Vec<f64> = self
             .scene

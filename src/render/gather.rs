@@ -240,36 +240,16 @@ impl Gather {
     /// patch decides what the gather reads and keeps), with no records yet.
     pub fn new(ctx: &Context, rays: u32, selection: &Selection) -> Self {
         let sol = ctx.solution;
-        // Per patch, the sources ray traced there.
-        let picked: Vec<Vec<SourceId>> = (0..sol.lists.len() as u32)
-            .map(|p| {
-                selection
-                    .picks(p)
-                    .iter()
-                    .map(|k| selection.sources[k.source as usize])
-                    .collect()
-            })
-            .collect();
-        let mut kept = vec![Rgb::ZERO; sol.general.len()];
+        let mut kept = selection.unpicked_stored(|s| matches!(s, SourceId::Light(_)));
         for (k, c) in kept.iter_mut().zip(&sol.caustic) {
             *k += *c;
         }
-        for (p, list) in sol.lists.iter().enumerate() {
-            let first = sol.mesh.patches[p].first_vertex as usize;
-            for e in list {
-                if matches!(e.source, SourceId::Light(_)) && !picked[p].contains(&e.source) {
-                    for (k, c) in e.occluded.iter().enumerate() {
-                        kept[first + k] += *c;
-                    }
-                }
-            }
-        }
-        let traced_patches = picked
-            .iter()
-            .map(|v| {
-                v.iter()
+        let traced_patches = (0..sol.lists.len() as u32)
+            .map(|p| {
+                selection
+                    .picked(p)
                     .filter_map(|s| match s {
-                        SourceId::Patch(q) => Some(*q),
+                        SourceId::Patch(q) => Some(q),
                         SourceId::Light(_) => None,
                     })
                     .collect()
@@ -415,11 +395,11 @@ impl Gather {
                 let r = &self.records[i as usize];
                 // Out of reach (the distance alone makes the error too large): most
                 // candidates, rejected before the square roots.
-                let reach = ACCURACY * r.radius;
-                if r.patch != patch || (sp.p - r.p).length_squared() >= reach * reach {
+                let (reach, d2) = (ACCURACY * r.radius, (sp.p - r.p).length_squared());
+                if r.patch != patch || d2 >= reach * reach {
                     continue;
                 }
-                let err = (sp.p - r.p).length() / r.radius + (1.0 - sp.ns.dot(r.n)).max(0.0).sqrt();
+                let err = d2.sqrt() / r.radius + (1.0 - sp.ns.dot(r.n)).max(0.0).sqrt();
                 let w = 1.0 - err / ACCURACY;
                 if w > 0.0 {
                     sum += r.at(sp.p, sp.ns) * w;
@@ -483,55 +463,7 @@ impl Gather {
                 if dir.dot(sp.ng) <= 0.0 {
                     continue;
                 }
-                counters.gather_rays += 1;
-                let mut e = Vec3::ZERO;
-                let mut ray = sp.spawn(dir, f32::INFINITY);
-                // What the ray carries back so far (mirrors on its way).
-                let mut through = Vec3::ONE;
-                for bounce in 0..=MAX_MIRRORS {
-                    let Some(hit) = ctx.accel.intersect(&ray) else {
-                        break;
-                    };
-                    if bounce == 0 {
-                        dist[k as usize] = hit.t.max(1e-6);
-                    }
-                    let y = SurfacePoint::new(ctx.scene, &ray, &hit);
-                    let shape = &ctx.scene.shapes[hit.shape as usize];
-                    let bsdf = &ctx.scene.bsdfs[shape.bsdf as usize];
-                    if !y.front && !bsdf.twosided {
-                        break;
-                    }
-                    if bsdf.kind.has_diffuse() {
-                        let q = ctx.solution.mesh.patch_at(ctx.scene, &hit, y.front);
-                        if bounce > 0 || !traced.contains(&q) {
-                            let w = ctx.solution.mesh.locate_on(ctx.scene, q, &hit, y.p);
-                            e += through
-                                * if bounce == 0 && hit.t < self.near {
-                                    let rho = bsdf.kind.diffuse_albedo();
-                                    w.apply(&self.unlit)
-                                        + rho
-                                            * self.relight(
-                                                ctx,
-                                                &y,
-                                                q,
-                                                derive(seed, Stream::Sample(k)),
-                                                counters,
-                                            )
-                                } else {
-                                    w.apply(&self.total)
-                                };
-                        }
-                    }
-                    let mirror = bsdf.kind.mirror((-ray.dir).dot(y.ns));
-                    let dir = reflect(ray.dir, y.ns).normalize();
-                    if mirror.max_element() <= 0.0 || dir.dot(y.ng) <= 0.0 {
-                        break;
-                    }
-                    counters.gather_rays += 1;
-                    through *= mirror;
-                    ray = y.spawn(dir, f32::INFINITY);
-                }
-                value[k as usize] = e;
+                (value[k as usize], dist[k as usize]) = self.read(ctx, sp, dir, traced, (seed, k), counters);
             }
         }
         Hemisphere {
@@ -542,6 +474,63 @@ impl Gather {
             t,
             b,
         }
+    }
+
+    /// What a gather ray from `sp` in direction `dir` brings back (following mirrors),
+    /// and how far its first hit is (infinite for none). `traced`: the radiant patches
+    /// ray traced on `sp`'s patch, which it reads nothing of; `(seed, k)`: the gather's
+    /// seed and the ray's index, for the shadow rays of a near hit.
+    fn read(
+        &self,
+        ctx: &Context,
+        sp: &SurfacePoint,
+        dir: Vec3,
+        traced: &[u32],
+        (seed, k): (u32, u32),
+        counters: &mut Counters,
+    ) -> (Rgb, f32) {
+        counters.gather_rays += 1;
+        let (mut e, mut dist) = (Vec3::ZERO, f32::INFINITY);
+        let mut ray = sp.spawn(dir, f32::INFINITY);
+        // What the ray carries back so far (mirrors on its way).
+        let mut through = Vec3::ONE;
+        for bounce in 0..=MAX_MIRRORS {
+            let Some(hit) = ctx.accel.intersect(&ray) else {
+                break;
+            };
+            if bounce == 0 {
+                dist = hit.t.max(1e-6);
+            }
+            let y = SurfacePoint::new(ctx.scene, &ray, &hit);
+            let shape = &ctx.scene.shapes[hit.shape as usize];
+            let bsdf = &ctx.scene.bsdfs[shape.bsdf as usize];
+            if !y.front && !bsdf.twosided {
+                break;
+            }
+            if bsdf.kind.has_diffuse() {
+                let q = ctx.solution.mesh.patch_at(ctx.scene, &hit, y.front);
+                if bounce > 0 || !traced.contains(&q) {
+                    let w = ctx.solution.mesh.locate_on(ctx.scene, q, &hit, y.p);
+                    let radiosity = if bounce == 0 && hit.t < self.near {
+                        let rho = bsdf.kind.diffuse_albedo();
+                        let seed = derive(seed, Stream::Sample(k));
+                        w.apply(&self.unlit) + rho * self.relight(ctx, &y, q, seed, counters)
+                    } else {
+                        w.apply(&self.total)
+                    };
+                    e += through * radiosity;
+                }
+            }
+            let mirror = bsdf.kind.mirror((-ray.dir).dot(y.ns));
+            let dir = reflect(ray.dir, y.ns).normalize();
+            if mirror.max_element() <= 0.0 || dir.dot(y.ng) <= 0.0 {
+                break;
+            }
+            counters.gather_rays += 1;
+            through *= mirror;
+            ray = y.spawn(dir, f32::INFINITY);
+        }
+        (e, dist)
     }
 }
 
