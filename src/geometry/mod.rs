@@ -6,6 +6,7 @@
 //! the piece of a Bezier patch, sphere or disk, that the radiosity pass meshes.
 
 pub mod bezier;
+mod form_factor;
 pub mod obj;
 pub mod ply;
 pub mod quadric;
@@ -17,6 +18,7 @@ mod trimesh_build;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 
 pub use bezier::BezierPatch;
+pub use form_factor::{edge_term, point_polygon_form_factor};
 pub use quadric::{Param, Quadric, QuadricKind};
 pub use solid_angle::{front_solid_angle, triangle_solid_angle, Subtense};
 

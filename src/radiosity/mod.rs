@@ -43,7 +43,7 @@ mod project;
 mod shot;
 mod transfer;
 
-pub use form_factor::{point_polygon_form_factor, quarter_form_factors};
+pub use form_factor::quarter_form_factors;
 use shot::{Levels, ShootPoint, Touching, FIRST_LIGHT_RAYS};
 
 /// What a ray of a deterministic patch shot is worth in photon rays: a patch shot that

@@ -5,9 +5,9 @@
 
 use glam::Vec3;
 
-use super::form_factor::point_polygon_form_factor;
 use super::{point_light_at, transfer, AtVertex, Solver};
 use crate::emitters::SampledLight;
+use crate::geometry::point_polygon_form_factor;
 use crate::interaction::{ray_epsilon, shadow_ray};
 use crate::mesh::{point_in_polygon, MeshVertex};
 use crate::sampling::stratum;

@@ -1,6 +1,6 @@
 use super::*;
 use crate::accel::Bvh;
-use crate::geometry::TriMesh;
+use crate::geometry::{point_polygon_form_factor, TriMesh};
 use crate::progress::Silent;
 use crate::testutil::{box_inside, box_outside, quad, scene, v};
 use std::f32::consts::PI;

@@ -655,7 +655,8 @@ mod tests {
     /// sideways).
     #[test]
     fn the_gradients_match_the_closed_forms_before_a_bright_wall() {
-        use crate::radiosity::{point_polygon_form_factor, Solution, SolveStats};
+        use crate::geometry::point_polygon_form_factor;
+        use crate::radiosity::{Solution, SolveStats};
         let wall = [
             v(1.2, -50.0, 0.0),
             v(1.2, -50.0, 1.0),
