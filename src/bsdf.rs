@@ -78,6 +78,20 @@ impl BsdfKind {
         }
     }
 
+    /// The diffuse BRDF where it is the same for all directions (Lambert's: `diffuse`,
+    /// mirrors' zero, and blends of those); `None` for `plastic`, whose coating's
+    /// Fresnel terms weight it by direction.
+    pub fn lambertian(&self) -> Option<Rgb> {
+        match self {
+            BsdfKind::Diffuse { reflectance } => Some(*reflectance * std::f32::consts::FRAC_1_PI),
+            BsdfKind::Conductor { .. } => Some(Vec3::ZERO),
+            BsdfKind::Plastic { .. } => None,
+            BsdfKind::Blend { weight, a, b } => {
+                Some(a.lambertian()? * (1.0 - weight) + b.lambertian()? * *weight)
+            }
+        }
+    }
+
     /// Whether the material reflects diffusely at all (where direct light is computed:
     /// the paper's "diffuse hits").
     pub fn has_diffuse(&self) -> bool {

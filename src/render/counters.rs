@@ -50,6 +50,17 @@ impl Counters {
         }
     }
 
+    /// One diffuse hit's sampling of source `source`: `cast` shadow rays cast and
+    /// `saved` taken from the SIB's neighbours.
+    pub fn count_source(&mut self, source: usize, cast: u64, saved: u64) {
+        self.shadow_rays += cast;
+        self.shadow_rays_saved += saved;
+        if let Some(c) = self.sources.get_mut(source) {
+            c.hits += 1;
+            c.shadow_rays += cast;
+        }
+    }
+
     /// Shadow rays per diffuse hit (0 without hits).
     pub fn rays_per_hit(&self) -> f64 {
         if self.diffuse_hits > 0 {
