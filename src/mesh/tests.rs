@@ -155,6 +155,48 @@ fn locate_interpolates_linear_functions_exactly() {
     assert_eq!(hits, 10, "rays that hit the triangle or the quad");
 }
 
+/// The inverse bilinear map recovers (s, t) across the Cornell box's tall block top
+/// (a rotated square whose bilinear term is rounding noise: the textbook quadratic
+/// formula put points a fifth of the way off there), across a trapezoid and a
+/// general quadrilateral.
+#[test]
+fn inverse_bilinear_recovers_the_parameters_of_near_parallelograms_too() {
+    let top = [
+        v(-0.53, 1.2, 0.09),
+        v(0.04, 1.2, -0.09),
+        v(-0.14, 1.2, -0.67),
+        v(-0.71, 1.2, -0.49),
+    ];
+    let trapezoid = [
+        v(0.0, 0.0, 0.0),
+        v(2.0, 0.0, 0.0),
+        v(1.5, 1.0, 0.0),
+        v(0.5, 1.0, 0.0),
+    ];
+    let general = [
+        v(0.0, 0.0, 1.0),
+        v(2.0, 0.3, 1.0),
+        v(2.4, 1.7, 1.0),
+        v(-0.2, 1.0, 1.0),
+    ];
+    for q in [top, trapezoid, general] {
+        for i in 0..=10 {
+            for j in 0..=10 {
+                let (s, t) = (i as f32 / 10.0, j as f32 / 10.0);
+                let p = q[0] * ((1.0 - s) * (1.0 - t))
+                    + q[1] * (s * (1.0 - t))
+                    + q[2] * (s * t)
+                    + q[3] * ((1.0 - s) * t);
+                let st = inverse_bilinear(q, p);
+                assert!(
+                    (st - Vec2::new(s, t)).abs().max_element() < 1e-4,
+                    "{q:?} at ({s}, {t}): {st}"
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn shoot_cells_tile_the_patch() {
     let s = tri_scene();
