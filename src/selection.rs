@@ -593,15 +593,20 @@ fn falloff_error(j: &Judge, p: u32, entry: &ListEntry, light: &SampledLight) -> 
         let [a, b, cc] = piece.corners;
         let x = (a + b + cc) / 3.0;
         let w = mesh.weights_on(&piece, x);
-        let (mut stored, mut total, mut front) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
+        let (mut stored, mut total, mut front, mut sum) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0);
         for k in 0..4 {
             let (v, wk) = (w.vertices[k] as usize, w.weights[k]);
             if wk > 0.0 && v >= first && v - first < entry.unoccluded.len() {
                 stored += entry.unoccluded[v - first] * wk;
                 total += j.total[v] * wk;
                 front += mesh.vertices[v].n * wk;
+                sum += wk;
             }
         }
+        if !(sum > 0.0) {
+            continue;
+        }
+        let (stored, total) = (stored / sum, total / sum);
         let n = (b - a).cross(cc - a).normalize_or_zero();
         let n = if n.dot(front) < 0.0 { -n } else { n };
         let Some(exact) = unoccluded_irradiance(light, x, n) else {
