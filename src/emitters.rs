@@ -166,6 +166,17 @@ impl SampledLight {
         }
     }
 
+    /// What a point or spot light brings to a point `x` with unit normal `n`:
+    /// irradiance (I x falloff / r^2 x cos; nothing behind the point or outside the
+    /// cone) and the light's position, for the shadow ray. The one rule of a light's
+    /// unoccluded light at a point, for pass 1's shots and projections and the
+    /// selection's falloff test. (For an area light: its light at one point of it.)
+    pub fn point_light_at(&self, x: Vec3, n: Vec3) -> Option<(Rgb, Vec3)> {
+        let s = self.sample(x, Vec2::ZERO)?;
+        let cos = n.dot(s.dir);
+        (cos > 0.0).then(|| (s.value * cos, s.point))
+    }
+
     /// Whether this is an area (surface) source.
     pub fn is_area(&self) -> bool {
         matches!(self, SampledLight::Area(_))

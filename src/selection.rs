@@ -621,17 +621,13 @@ fn falloff_error(j: &Judge, p: u32, entry: &ListEntry, light: &SampledLight) -> 
 }
 
 /// A light's unoccluded irradiance at `x` (unit normal `n`): a point or spot light's
-/// intensity over the squared distance times the cosine (nothing outside a spot's
-/// cone or behind `x`), an area light's in closed form where it has one.
+/// by the rule of pass 1's shots ([`SampledLight::point_light_at`]), an area light's
+/// in closed form where it has one.
 fn unoccluded_irradiance(light: &SampledLight, x: Vec3, n: Vec3) -> Option<Rgb> {
     if light.is_area() {
         return light.unoccluded_irradiance(x, n);
     }
-    Some(
-        light
-            .sample(x, glam::Vec2::ZERO)
-            .map_or(Vec3::ZERO, |s| s.value * n.dot(s.dir).max(0.0)),
-    )
+    Some(light.point_light_at(x, n).map_or(Vec3::ZERO, |(e, _)| e))
 }
 
 /// Chooses the ray-traced sources of `method` (`twopass`, `norm`, `local` or

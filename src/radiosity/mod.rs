@@ -243,16 +243,6 @@ impl Solution {
     }
 }
 
-/// What a point or spot light brings to a point `x` with normal `n`: irradiance
-/// (I x falloff / r^2 x cos; nothing behind the point or outside the cone) and the
-/// light's position, for the shadow ray. The one rule of a light's shot, at its
-/// vertices ([`Solver::gather`]) and at the points of its projection ([`project`]).
-fn point_light_at(l: &SampledLight, x: Vec3, n: Vec3) -> Option<(Rgb, Vec3)> {
-    let s = l.sample(x, Vec2::ZERO)?;
-    let cos = n.dot(s.dir);
-    (cos > 0.0).then(|| (s.value * cos, s.point))
-}
-
 /// Runs pass 1. `progress` hears the shot fraction of power, in thousandths.
 pub fn solve(
     scene: &Scene,

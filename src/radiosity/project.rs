@@ -24,7 +24,6 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::point_light_at;
 use crate::accel::Accel;
 use crate::emitters::SampledLight;
 use crate::interaction::shadow_ray;
@@ -70,7 +69,7 @@ pub fn project(
     let mut rays = 0u64;
     // The reflected light at `x` on a surface with normal `n`, with its shadow ray.
     let mut at = |x: Vec3, n: Vec3| -> Rgb {
-        let Some((e, q)) = point_light_at(light, x, n) else {
+        let Some((e, q)) = light.point_light_at(x, n) else {
             return Vec3::ZERO;
         };
         rays += 1;

@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 
-use super::{point_light_at, transfer, AtVertex, Solver};
+use super::{transfer, AtVertex, Solver};
 use crate::emitters::SampledLight;
 use crate::geometry::point_polygon_form_factor;
 use crate::interaction::{ray_epsilon, shadow_ray};
@@ -287,7 +287,7 @@ impl Solver<'_> {
             // Radiosity is one-sided: a vertex receives on its front (two-sided
             // surfaces have a back twin with the reversed normal).
             let e = if let Some(l) = light {
-                match point_light_at(l, x, n) {
+                match l.point_light_at(x, n) {
                     Some((e, _)) => e,
                     None => continue,
                 }
