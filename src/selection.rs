@@ -28,6 +28,7 @@ use crate::camera::Camera;
 use crate::emitters::light_power;
 use crate::emitters::{AreaEmitter, SampledLight};
 use crate::geometry::Subtense;
+use crate::mesh::Interp;
 use crate::radiosity::{ListEntry, Solution, SourceId};
 use crate::scene::{mean, Light, Rgb, Scene};
 use crate::{Error, Result};
@@ -455,7 +456,9 @@ pub struct Judge<'a> {
 
 /// The five criteria of Sect. 3 for the listed source `entry` on patch `p`; `tris`
 /// are the source's triangles (empty for point and spot lights).
-pub fn judge(j: &Judge, p: u32, entry: &ListEntry, tris: &Subtense) -> Criteria {
+/// `points` holds the patch's falloff points once some source of it asks for them
+/// (one per patch, shared by its sources).
+pub fn judge(j: &Judge, p: u32, entry: &ListEntry, tris: &Subtense, points: &FalloffPoints) -> Criteria {
     let (scene, sol, total, settings, view) = (j.scene, j.sol, j.total, j.settings, j.view);
     let mp = &sol.mesh.patches[p as usize];
     let first = mp.first_vertex as usize;
@@ -562,7 +565,14 @@ pub fn judge(j: &Judge, p: u32, entry: &ListEntry, tris: &Subtense) -> Criteria 
     // still decide.
     if c.radiance && c.reflectivity && c.solid_angle && c.view && !c.gradient && !bends {
         if let SourceId::Light(l) = entry.source {
-            c.falloff_error = falloff_error(j, p, entry, &j.lights[l as usize]);
+            let points = points.0.get_or_init(|| falloff_points(j, p));
+            c.falloff_error = falloff_error(
+                points,
+                entry,
+                &j.lights[l as usize],
+                mp.reflectance,
+                mp.first_vertex,
+            );
             c.gradient = c.falloff_error > FALLOFF_ERROR;
         }
     }
@@ -578,44 +588,75 @@ pub fn judge(j: &Judge, p: u32, entry: &ListEntry, tris: &Subtense) -> Criteria 
 /// 3.5 M shadow rays; measured on a first version of the hall).
 const FALLOFF_ERROR: f32 = 0.05;
 
-/// The largest error of the elements' linear interpolation of `entry`'s unoccluded
-/// light on patch `p`, at the centre of each piece of the patch
-/// ([`crate::mesh::RadiosityMesh::pieces`], no bigger than an element), against the
-/// light's exact unoccluded irradiance there times the patch's reflectance, as a
-/// share of the interpolated total radiosity at the point. 0 for a light with no
-/// closed form (an exact sphere, a finely tessellated emitter).
-fn falloff_error(j: &Judge, p: u32, entry: &ListEntry, light: &SampledLight) -> f32 {
+/// The points of a patch where the falloff test compares a listed light's
+/// interpolated light with its exact one ([`judge`]), made once per patch.
+#[derive(Default)]
+pub struct FalloffPoints(std::cell::OnceCell<Vec<FalloffPoint>>);
+
+/// The centre of a piece of a patch ([`crate::mesh::RadiosityMesh::pieces`], no bigger
+/// than an element), its normal on the patch's side, its interpolation weights over
+/// the patch's own vertices (summing to 1) and the interpolated total radiosity there.
+struct FalloffPoint {
+    x: Vec3,
+    n: Vec3,
+    w: Interp,
+    total: f32,
+}
+
+fn falloff_points(j: &Judge, p: u32) -> Vec<FalloffPoint> {
     let mesh = &j.sol.mesh;
     let mp = &mesh.patches[p as usize];
-    let first = mp.first_vertex as usize;
-    let mut worst = 0.0f32;
+    let own = mp.first_vertex..mp.first_vertex + mp.vertex_count;
+    let mut out = Vec::new();
     for piece in mesh.pieces(p) {
-        let [a, b, cc] = piece.corners;
-        let x = (a + b + cc) / 3.0;
-        let w = mesh.weights_on(&piece, x);
-        let (mut stored, mut total, mut front, mut sum) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0);
+        let [a, b, c] = piece.corners;
+        let x = (a + b + c) / 3.0;
+        let mut w = mesh.weights_on(&piece, x);
         for k in 0..4 {
-            let (v, wk) = (w.vertices[k] as usize, w.weights[k]);
-            if wk > 0.0 && v >= first && v - first < entry.unoccluded.len() {
-                stored += entry.unoccluded[v - first] * wk;
-                total += j.total[v] * wk;
-                front += mesh.vertices[v].n * wk;
-                sum += wk;
+            if !own.contains(&w.vertices[k]) || !(w.weights[k] > 0.0) {
+                w.weights[k] = 0.0;
             }
         }
-        if !(sum > 0.0) {
+        let sum: f32 = w.weights.iter().sum();
+        let n = (b - a).cross(c - a).normalize_or_zero();
+        if !(sum > 0.0) || n == Vec3::ZERO {
             continue;
         }
-        let (stored, total) = (stored / sum, total / sum);
-        let n = (b - a).cross(cc - a).normalize_or_zero();
-        let n = if n.dot(front) < 0.0 { -n } else { n };
-        let Some(exact) = unoccluded_irradiance(light, x, n) else {
+        w.weights = w.weights.map(|wk| wk / sum);
+        let front: Vec3 = (0..4)
+            .map(|k| mesh.vertices[w.vertices[k] as usize].n * w.weights[k])
+            .sum();
+        let total = mean(w.apply(j.total));
+        if total > 0.0 {
+            let n = if n.dot(front) < 0.0 { -n } else { n };
+            out.push(FalloffPoint { x, n, w, total });
+        }
+    }
+    out
+}
+
+/// The largest error of the elements' linear interpolation of `entry`'s unoccluded
+/// light at a patch's falloff `points` against the light's exact unoccluded
+/// irradiance there times the patch's reflectance `rho`, as a share of the total
+/// radiosity at the point. 0 for a light with no closed form (an exact sphere, a
+/// finely tessellated emitter). `first` is the patch's first vertex.
+fn falloff_error(
+    points: &[FalloffPoint],
+    entry: &ListEntry,
+    light: &SampledLight,
+    rho: Rgb,
+    first: u32,
+) -> f32 {
+    let mut worst = 0.0f32;
+    for pt in points {
+        let Some(exact) = unoccluded_irradiance(light, pt.x, pt.n) else {
             return 0.0;
         };
-        let t = mean(total);
-        if t > 0.0 && n != Vec3::ZERO {
-            worst = worst.max((mean(exact * mp.reflectance) - mean(stored)).abs() / t);
-        }
+        let stored: Rgb = (0..4)
+            .filter(|&k| pt.w.weights[k] > 0.0)
+            .map(|k| entry.unoccluded[(pt.w.vertices[k] - first) as usize] * pt.w.weights[k])
+            .sum();
+        worst = worst.max((mean(exact * rho) - mean(stored)).abs() / pt.total);
     }
     worst
 }
@@ -734,10 +775,11 @@ pub(crate) fn select_unchecked<'a>(
                 .into_par_iter()
                 .with_max_len(64)
                 .map(|p| {
+                    let points = FalloffPoints::default();
                     sol.lists[p]
                         .iter()
                         .map(|e| {
-                            let c = judge(&judge_ctx, p as u32, e, &tris[&e.source]);
+                            let c = judge(&judge_ctx, p as u32, e, &tris[&e.source], &points);
                             (e.source, c)
                         })
                         .collect::<Vec<_>>()
