@@ -33,6 +33,17 @@ fn settings(method: Method) -> Settings {
     }
 }
 
+/// The centres of a 4 x 4 grid over pixel (x, y), in film coordinates: where the
+/// closed-form tests evaluate what a pixel should show.
+fn subpixels(x: usize, y: usize) -> impl Iterator<Item = (f32, f32)> {
+    (0..16).map(move |k| {
+        (
+            x as f32 + (k % 4) as f32 / 4.0 + 0.125,
+            y as f32 + (k / 4) as f32 / 4.0 + 0.125,
+        )
+    })
+}
+
 fn image_mean(img: &crate::image::Image) -> f32 {
     img.pixels.iter().map(|p| mean(*p)).sum::<f32>() / img.pixels.len() as f32
 }
@@ -421,14 +432,7 @@ fn a_sphere_renders_as_the_closed_form_of_the_true_sphere() {
     let (mut want_sum, mut got_sum, mut inner) = (0.0, 0.0, 0);
     for y in 0..48 {
         for x in 0..48 {
-            let sub: Vec<Option<f32>> = (0..16)
-                .map(|k| {
-                    at(
-                        x as f32 + (k % 4) as f32 / 4.0 + 0.125,
-                        y as f32 + (k / 4) as f32 / 4.0 + 0.125,
-                    )
-                })
-                .collect();
+            let sub: Vec<Option<f32>> = subpixels(x, y).map(|(fx, fy)| at(fx, fy)).collect();
             let want = sub.iter().map(|v| v.unwrap_or(0.0)).sum::<f32>() / 16.0;
             let got = img.pixels[y * 48 + x].x;
             want_sum += want;
@@ -511,14 +515,7 @@ fn the_floor_round_a_lamp_close_to_it_shows_the_closed_form() {
     let (mut checked, mut worst) = (0, 0.0f32);
     for y in 0..48 {
         for x in 0..48 {
-            let pts: Option<Vec<Vec3>> = (0..16)
-                .map(|k| {
-                    floor(
-                        x as f32 + (k % 4) as f32 / 4.0 + 0.125,
-                        y as f32 + (k / 4) as f32 / 4.0 + 0.125,
-                    )
-                })
-                .collect();
+            let pts: Option<Vec<Vec3>> = subpixels(x, y).map(|(fx, fy)| floor(fx, fy)).collect();
             let Some(pts) = pts else { continue };
             let want = pts.iter().map(|&p| want_at(p)).sum::<f32>() / 16.0;
             // Only where the lamp's light is well above the noise and near it.
