@@ -91,7 +91,7 @@ pub enum SampledLight {
     Area(AreaEmitter),
 }
 
-/// Light leaving a source: see [`SampledLight::emit`].
+/// Light leaving a source: see [`SampledLight::emit_towards`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Emission {
     /// Where it leaves.
@@ -228,57 +228,44 @@ impl SampledLight {
         }
     }
 
-    /// Light leaving the source (for tracing photons), chosen by `u` in `[0,1)^4`:
-    /// the origin, the surface normal there (`None` for point and spot lights), a
-    /// direction and the power the choice stands for (the source's whole power for a
-    /// uniform choice: divide by the number of photons). Points emit uniformly over
-    /// the sphere, spots uniformly over their cone (weighted by the falloff), area
-    /// lights from a point uniform by area in a cosine-distributed direction.
-    pub fn emit(&self, u: [f32; 4]) -> Option<Emission> {
-        use std::f32::consts::PI;
-        match self {
-            SampledLight::Point { position, intensity } => {
-                let z = 1.0 - 2.0 * u[0];
-                let r = (1.0 - z * z).max(0.0).sqrt();
-                let phi = 2.0 * PI * u[1];
-                Some(Emission {
-                    origin: *position,
-                    normal: None,
-                    dir: Vec3::new(r * phi.cos(), r * phi.sin(), z),
-                    power: *intensity * (4.0 * PI),
-                })
-            }
+    /// Light leaving the source in a direction of the caller's choice: the origin is
+    /// chosen by `u` (uniform by area on an area light; a point or spot light's
+    /// position), then `aim(origin)` gives a unit direction and its probability
+    /// density per steradian. The power is what the light sends into that direction
+    /// over the density (a point's or spot's intensity there; an area light's radiance
+    /// times the cosine times its area): the whole power, on average, for a density
+    /// that covers every direction the light sends into. `None` where it sends nothing
+    /// (outside a spot's cone, behind an area light) or `aim` gives no direction.
+    pub fn emit_towards(&self, u: Vec2, aim: impl FnOnce(Vec3) -> Option<(Vec3, f32)>) -> Option<Emission> {
+        let (origin, normal, value) = match self {
+            SampledLight::Point { position, intensity } => (*position, None, *intensity),
             SampledLight::Spot {
-                position,
+                position, intensity, ..
+            } => (*position, None, *intensity),
+            SampledLight::Area(e) => {
+                let (origin, n, radiance) = e.point(u)?;
+                (origin, Some(n), radiance * e.area)
+            }
+        };
+        let (dir, pdf) = aim(origin)?;
+        let scale = match self {
+            SampledLight::Point { .. } => 1.0,
+            SampledLight::Spot {
                 axis,
-                intensity,
                 cutoff,
                 cos_cutoff,
                 cos_beam,
                 inv_transition,
-            } => {
-                let cos_t = 1.0 - u[0] * (1.0 - cos_cutoff);
-                let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-                let phi = 2.0 * PI * u[1];
-                let (a, b) = axis.any_orthonormal_pair();
-                let falloff = spot_falloff(cos_t, *cutoff, *cos_cutoff, *cos_beam, *inv_transition);
-                Some(Emission {
-                    origin: *position,
-                    normal: None,
-                    dir: a * (sin_t * phi.cos()) + b * (sin_t * phi.sin()) + *axis * cos_t,
-                    power: *intensity * (falloff * 2.0 * PI * (1.0 - cos_cutoff)),
-                })
-            }
-            SampledLight::Area(e) => {
-                let (origin, n, radiance) = e.point(Vec2::new(u[0], u[1]))?;
-                Some(Emission {
-                    origin,
-                    normal: Some(n),
-                    dir: crate::sampling::cosine_direction(n, Vec2::new(u[2], u[3])),
-                    power: radiance * (PI * e.area),
-                })
-            }
-        }
+                ..
+            } => spot_falloff(dir.dot(*axis), *cutoff, *cos_cutoff, *cos_beam, *inv_transition),
+            SampledLight::Area(_) => normal.map_or(0.0, |n| n.dot(dir)),
+        };
+        (scale > 0.0 && pdf > 0.0).then(|| Emission {
+            origin,
+            normal,
+            dir,
+            power: value * (scale / pdf),
+        })
     }
 }
 
@@ -932,5 +919,58 @@ mod tests {
             }
         }
         assert!((sum / (n * n) as f32 - 0.5).abs() < 1e-3);
+    }
+
+    /// Light aimed by the caller carries, on average, the light's whole power when
+    /// the aim covers every direction: uniform over the sphere, a point light gives
+    /// 4 pi I, a spot its falloff's integral, and a one-sided area light pi L A
+    /// (nothing behind it, half the directions).
+    #[test]
+    fn light_aimed_over_the_sphere_carries_the_whole_power() {
+        use crate::sampling::cone_direction;
+        use crate::testutil::scene;
+        use std::f32::consts::PI;
+        let s = scene(vec![], vec![], &[]);
+        let spot = Light::Spot {
+            position: Vec3::ONE,
+            direction: Vec3::new(0.0, 0.6, 0.8),
+            intensity: Vec3::splat(2.0),
+            cutoff_angle: 0.5,
+            beam_width: 0.3,
+        };
+        let point = Light::Point {
+            position: Vec3::ZERO,
+            intensity: Vec3::splat(3.0),
+        };
+        let a = Vec3::new(0.0, 0.0, 1.0);
+        let square = AreaEmitter::new(
+            vec![
+                [a, a + Vec3::Y, a + Vec3::X + Vec3::Y],
+                [a, a + Vec3::X + Vec3::Y, a + Vec3::X],
+            ],
+            Vec3::splat(1.5),
+            Vec::new(),
+        );
+        let cases = [
+            (SampledLight::prepare(&s, &spot), light_power(&s, &spot)),
+            (SampledLight::prepare(&s, &point), light_power(&s, &point)),
+            (SampledLight::Area(square), f64::from(PI * 1.5)),
+        ];
+        let n = 256;
+        for (light, want) in cases {
+            let mut sum = 0.0f64;
+            for i in 0..n {
+                for j in 0..n {
+                    let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                    let v = Vec2::new(u.y, u.x);
+                    let e = light.emit_towards(u, |_| {
+                        Some((cone_direction(Vec3::Z, 4.0 * PI, v), 1.0 / (4.0 * PI)))
+                    });
+                    sum += e.map_or(0.0, |e| f64::from(e.power.x));
+                }
+            }
+            let got = sum / f64::from(n * n);
+            assert!((got - want).abs() < 0.01 * want, "{light:?}: {got} vs {want}");
+        }
     }
 }

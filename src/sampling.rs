@@ -100,6 +100,32 @@ pub fn cosine_direction(n: Vec3, u: Vec2) -> Vec3 {
     (t * local.x + b * local.y + n * (1.0 - u.x).max(0.0).sqrt()).normalize()
 }
 
+/// The cone from `x` that holds the sphere of centre `c` and radius `r`: its unit
+/// axis and its solid angle, or `None` when `x` lies inside the sphere (every
+/// direction then meets it).
+pub fn sphere_cone(x: Vec3, c: Vec3, r: f32) -> Option<(Vec3, f32)> {
+    let d = c - x;
+    let dist2 = d.length_squared();
+    if !(dist2 > r * r) {
+        return None;
+    }
+    // 1 - cos(theta_max) = (r/d)^2 / (1 + cos(theta_max)), without cancellation.
+    let s2 = r * r / dist2;
+    let one_minus_cos = s2 / (1.0 + (1.0 - s2).max(0.0).sqrt());
+    Some((d / dist2.sqrt(), 2.0 * std::f32::consts::PI * one_minus_cos))
+}
+
+/// A unit direction uniform over the cone about the unit `axis` of solid angle
+/// `solid_angle` (at most 4 pi: the whole sphere).
+pub fn cone_direction(axis: Vec3, solid_angle: f32, u: Vec2) -> Vec3 {
+    let one_minus_cos = (u.x * solid_angle / (2.0 * std::f32::consts::PI)).min(2.0);
+    let cos_t = 1.0 - one_minus_cos;
+    let sin_t = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
+    let phi = 2.0 * std::f32::consts::PI * u.y;
+    let (t, b) = axis.any_orthonormal_pair();
+    (t * (sin_t * phi.cos()) + b * (sin_t * phi.sin()) + axis * cos_t).normalize()
+}
+
 /// Point `j` of `per` (a power of two, at most 128) stratified points in the unit
 /// square, from the draws of `seed` at `index | j` (`index`'s low 7 bits clear):
 /// strata as square as they go (2 x 2, 4 x 2, 4 x 4 ...). Two points are a point and

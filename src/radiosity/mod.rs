@@ -595,15 +595,9 @@ impl Solver<'_> {
             n = n.min(self.settings.max_photons);
         }
         let (emit, emit_power) = photons::Tracer::emitters(&self.mesh, &self.unshot);
-        let powers: Vec<f64> = self
-            .scene
-            .lights
-            .iter()
-            .map(|l| light_power(self.scene, l))
-            .collect();
-        let light_pick = Alias::new(&powers);
         let lights = SampledLight::prepare_all(self.scene);
-        let light_photons = if photons::has_mirrors(self.scene) && light_pick.is_some() {
+        let aim = photons::Aim::new(self.scene, &lights);
+        let light_photons = if photons::has_mirrors(self.scene) && aim.light_pick.is_some() {
             n / 4
         } else {
             0
@@ -624,7 +618,7 @@ impl Solver<'_> {
             emit_pick: Alias::new(&emit_power),
             light_photons,
             lights,
-            light_pick,
+            aim,
         };
         let total = tracer.total();
         let chunks = tracer.chunks();

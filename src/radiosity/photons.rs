@@ -4,8 +4,8 @@
 //! shots.
 //!
 //! Photons leave the radiant patches in proportion to their unshot radiosity (and,
-//! when the scene has mirrors, the light sources: light -> mirror -> diffuse paths,
-//! paper Sect. 6). At every diffuse hit a photon leaves its reflected power on the
+//! when the scene has mirrors, the light sources, aimed at the mirrors ([`Aim`]):
+//! light -> mirror -> diffuse paths, paper Sect. 6). At every diffuse hit a photon leaves its reflected power on the
 //! vertices of the element hit, in proportion to their interpolation weights and
 //! inversely to their areas, so a smooth field is estimated without bias; then it is
 //! reflected diffusely or specularly, or absorbed (Russian roulette on the
@@ -22,8 +22,9 @@ use crate::accel::{Accel, Ray};
 use crate::emitters::SampledLight;
 use crate::interaction::{offset_from, reflect, SurfacePoint};
 use crate::mesh::{point_in_polygon, Piece, RadiosityMesh};
-use crate::sampling::{cosine_direction, shot_seed, uniform3, Alias};
+use crate::sampling::{cone_direction, cosine_direction, shot_seed, sphere_cone, uniform3, Alias};
 use crate::scene::{mean, Rgb, Scene};
+use std::f32::consts::PI;
 
 use super::SourceId;
 
@@ -62,9 +63,9 @@ pub struct Tracer<'a> {
     /// Photons from patches, and from lights (only with mirrors in the scene).
     pub patch_photons: u64,
     pub light_photons: u64,
-    /// The lights, prepared, drawn by their powers.
+    /// The lights, prepared, and where their photons go.
     pub lights: Vec<SampledLight>,
-    pub light_pick: Option<Alias>,
+    pub aim: Aim,
 }
 
 impl<'a> Tracer<'a> {
@@ -146,13 +147,17 @@ impl<'a> Tracer<'a> {
                     false,
                 )
             } else {
-                let Some(table) = &self.light_pick else { continue };
+                let Some(table) = &self.aim.light_pick else {
+                    continue;
+                };
                 let [a, b, c] = next();
                 let l = table.pick(a, b, c);
                 let count = self.light_photons as f32 * table.probability(l) as f32;
                 let [u, v, _] = next();
+                let t = next();
                 let [c, d, _] = next();
-                match self.lights[l].emit([u, v, c, d]) {
+                let aim = |x| self.aim.direction(l, x, t, Vec2::new(c, d));
+                match self.lights[l].emit_towards(Vec2::new(u, v), aim) {
                     Some(e) => (
                         e.origin,
                         e.normal.unwrap_or(Vec3::ZERO),
@@ -300,6 +305,146 @@ impl<'a> Tracer<'a> {
     }
 }
 
+/// Mirror groups at most: the photons of a light pick one, then a direction in the
+/// cone that holds it, and their density sums over every group's cone.
+const MAX_TARGETS: usize = 32;
+/// Stratified samples per light and group that estimate the power it sends there.
+const AIM_SAMPLES: u32 = 256;
+/// Every light and group keep at least this share of the largest power estimate, so
+/// that a group the estimate missed (a spot whose cone grazes it) is still reached,
+/// rarely: the aim stays unbiased.
+const AIM_FLOOR: f64 = 1e-5;
+
+/// Where the lights' photons go: only light that a mirror passes on is traced from
+/// the lights (the deterministic shots hold the rest), so photons leave each light
+/// towards the bounding spheres of the surfaces that reflect like mirrors, not over
+/// all its directions. A teapot of polished metal, a few hundredths of a spot's cone,
+/// would otherwise catch a few hundredths of the photons (Jensen's projection maps,
+/// with cones instead of maps).
+pub struct Aim {
+    /// Bounding spheres (centre, radius) of the mirror surfaces, grouped.
+    spheres: Vec<(Vec3, f32)>,
+    /// Per light: the chance of aiming at each sphere.
+    per_light: Vec<Option<Alias>>,
+    /// Per light: the chance of choosing it.
+    pub light_pick: Option<Alias>,
+}
+
+impl Aim {
+    /// The mirror surfaces' spheres, and for each light the power it sends into each
+    /// one's cone (estimated by stratified samples), which weighs the choices.
+    pub fn new(scene: &Scene, lights: &[SampledLight]) -> Aim {
+        let spheres = mirror_spheres(scene);
+        let mut weights: Vec<Vec<f64>> = Vec::with_capacity(lights.len());
+        for light in lights {
+            let w = spheres
+                .iter()
+                .map(|&(c, r)| {
+                    let n = AIM_SAMPLES;
+                    let side = (n as f32).sqrt() as u32;
+                    let mut sum = 0.0f64;
+                    for k in 0..n {
+                        let (i, j) = (k % side, k / side);
+                        let u = Vec2::new((i as f32 + 0.5) / side as f32, (j as f32 + 0.5) / side as f32);
+                        // The same stratum picks the origin and the direction, in
+                        // transposed order, so that both sweep their ranges.
+                        let v = Vec2::new(u.y, u.x);
+                        let e = light.emit_towards(u, |x| match sphere_cone(x, c, r) {
+                            Some((axis, omega)) => Some((cone_direction(axis, omega, v), 1.0 / omega)),
+                            None => Some((cone_direction(Vec3::Z, 4.0 * PI, v), 1.0 / (4.0 * PI))),
+                        });
+                        sum += e.map_or(0.0, |e| f64::from(mean(e.power)));
+                    }
+                    sum / f64::from(n)
+                })
+                .collect();
+            weights.push(w);
+        }
+        let top = weights.iter().flatten().copied().fold(0.0, f64::max);
+        let floor = AIM_FLOOR * top;
+        for w in &mut weights {
+            for x in w.iter_mut() {
+                *x = x.max(floor);
+            }
+        }
+        let totals: Vec<f64> = weights.iter().map(|w| w.iter().sum()).collect();
+        Aim {
+            spheres,
+            per_light: weights.iter().map(|w| Alias::new(w)).collect(),
+            light_pick: if top > 0.0 { Alias::new(&totals) } else { None },
+        }
+    }
+
+    /// A direction from `x` on light `l` and its density per steradian: a sphere
+    /// picked by `u`, then a direction uniform in its cone by `v`; the density is the
+    /// mixture's over every sphere whose cone holds the direction.
+    fn direction(&self, l: usize, x: Vec3, u: [f32; 3], v: Vec2) -> Option<(Vec3, f32)> {
+        let pick = self.per_light.get(l)?.as_ref()?;
+        let (c, r) = self.spheres[pick.pick(u[0], u[1], u[2])];
+        let dir = match sphere_cone(x, c, r) {
+            Some((axis, omega)) => cone_direction(axis, omega, v),
+            None => cone_direction(Vec3::Z, 4.0 * PI, v),
+        };
+        let mut pdf = 0.0f64;
+        for (k, &(c, r)) in self.spheres.iter().enumerate() {
+            let p = pick.probability(k);
+            pdf += match sphere_cone(x, c, r) {
+                Some((axis, omega)) => {
+                    // |dir - axis|^2 = 2 (1 - cos): precise for narrow cones.
+                    let inside = (dir - axis).length_squared() <= omega / PI;
+                    if inside {
+                        p / f64::from(omega)
+                    } else {
+                        0.0
+                    }
+                }
+                None => p / (4.0 * std::f64::consts::PI),
+            };
+        }
+        (pdf > 0.0).then_some((dir, pdf as f32))
+    }
+}
+
+/// Bounding spheres of the shapes whose material reflects like a mirror, merged into
+/// at most [`MAX_TARGETS`] groups (split at the median along the widest spread of
+/// their centres, and each group bounded by one sphere holding its members').
+fn mirror_spheres(scene: &Scene) -> Vec<(Vec3, f32)> {
+    let mut spheres: Vec<(Vec3, f32)> = scene
+        .shapes
+        .iter()
+        .filter(|s| scene.bsdfs[s.bsdf as usize].kind.has_mirror())
+        .filter_map(|s| s.mesh.bounds())
+        .map(|(lo, hi)| ((lo + hi) * 0.5, (hi - lo).length() * 0.5))
+        .collect();
+    let mut groups = vec![spheres.as_mut_slice()];
+    while groups.len() < MAX_TARGETS && groups.iter().any(|g| g.len() > 1) {
+        let i = (0..groups.len()).max_by_key(|&i| groups[i].len()).unwrap_or(0);
+        let g = groups.swap_remove(i);
+        let (lo, hi) = g
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), s| {
+                (lo.min(s.0), hi.max(s.0))
+            });
+        let axis = (hi - lo).max_position();
+        g.sort_by(|a, b| a.0[axis].total_cmp(&b.0[axis]));
+        let (a, b) = g.split_at_mut(g.len() / 2);
+        groups.push(a);
+        groups.push(b);
+    }
+    groups
+        .into_iter()
+        .filter(|g| !g.is_empty())
+        .map(|g| {
+            let centre = g.iter().map(|s| s.0).sum::<Vec3>() / g.len() as f32;
+            let radius = g
+                .iter()
+                .map(|s| (s.0 - centre).length() + s.1)
+                .fold(0.0, f32::max);
+            (centre, radius)
+        })
+        .collect()
+}
+
 /// Whether `dir`, a mirror reflection about the shading normal, leaves on the side of
 /// the surface it came from (`ng` faces that side). Where the shading normal leans away
 /// from the geometric one (smooth normals on a curved tessellated surface, at grazing
@@ -355,5 +500,81 @@ mod tests {
         );
         // And the bound stays local: pieces near the corner only (not the whole square).
         assert!(bound < 8.0 * power, "bound {bound} against {power}");
+    }
+
+    /// Photons aimed at mirrors carry, into each mirror's cone, the power the light
+    /// sends there: I x solid angle for a point light, here with two mirror cubes
+    /// whose cones overlap (the density is the mixture's over both), and a diffuse
+    /// cube that gets no photons. A spot whose cone misses a mirror sends it next to
+    /// nothing.
+    #[test]
+    fn photons_aimed_at_mirrors_carry_the_power_each_one_receives() {
+        use crate::scene::BsdfKind;
+        use crate::testutil::{box_outside, scene_with};
+        let mirror = BsdfKind::Conductor {
+            specular_reflectance: Vec3::ONE,
+        };
+        let cube = |c: Vec3, h: f32| {
+            let mut faces = box_outside(c - Vec3::splat(h), c + Vec3::splat(h));
+            let mut m = faces.remove(0);
+            for f in faces {
+                m.append(&f);
+            }
+            m
+        };
+        let diffuse = BsdfKind::Diffuse {
+            reflectance: Vec3::splat(0.5),
+        };
+        let s = scene_with(
+            vec![
+                (cube(v(3.0, 0.0, 0.0), 0.3), mirror.clone()),
+                (cube(v(3.0, 0.4, 0.1), 0.2), mirror),
+                (cube(v(-3.0, 0.0, 0.0), 0.5), diffuse),
+            ],
+            vec![
+                crate::scene::Light::Point {
+                    position: Vec3::ZERO,
+                    intensity: Vec3::splat(2.0),
+                },
+                crate::scene::Light::Spot {
+                    position: Vec3::ZERO,
+                    direction: Vec3::Y,
+                    intensity: Vec3::splat(2.0),
+                    cutoff_angle: 0.3,
+                    beam_width: 0.2,
+                },
+            ],
+            &[],
+        );
+        let lights = SampledLight::prepare_all(&s);
+        let aim = Aim::new(&s, &lights);
+        assert_eq!(aim.spheres.len(), 2);
+        let table = aim.light_pick.as_ref().unwrap();
+        assert!(table.probability(1) < 1e-4, "{}", table.probability(1));
+        let n = 400_000u32;
+        let mut got = [0.0f64; 2];
+        for i in 0..n {
+            let draw = |k: u32| uniform3(0x5eed, 4 * i + k);
+            let [u, w, _] = draw(0);
+            let [c, d, _] = draw(2);
+            let e = lights[0]
+                .emit_towards(Vec2::new(u, w), |x| aim.direction(0, x, draw(1), Vec2::new(c, d)))
+                .unwrap();
+            for (k, &(centre, r)) in aim.spheres.iter().enumerate() {
+                let (axis, omega) = sphere_cone(Vec3::ZERO, centre, r).unwrap();
+                if e.dir.angle_between(axis) <= (omega / (2.0 * PI)).mul_add(-1.0, 1.0).acos() {
+                    got[k] += f64::from(e.power.x) / f64::from(n);
+                }
+            }
+        }
+        for (k, &(centre, r)) in aim.spheres.iter().enumerate() {
+            let (_, omega) = sphere_cone(Vec3::ZERO, centre, r).unwrap();
+            let want = 2.0 * f64::from(omega);
+            assert!(
+                (got[k] - want).abs() < 0.02 * want,
+                "mirror {k}: {} vs {want}",
+                got[k]
+            );
+        }
     }
 }
