@@ -210,8 +210,10 @@ fn lamp_past_a_screen(screen: [Vec3; 4], lamp: [Vec3; 4], mesh_size: f32) -> Vec
 /// The penumbra of a small square light (0.2 m, 2 m up) behind the straight edge of
 /// a screen halfway down: at floor vertex x the visible part of the light is
 /// (0.1 + x) / 0.2 exactly. The light is one cell from there, so one shadow ray
-/// would say 0 or 1 (mean error 0.30 across the penumbra); the first two rays and
-/// the sixteen of the refinement stay under 0.12 (0.09).
+/// would say 0 or 1 (mean error 0.30 across the penumbra). The first rays find the
+/// light partly hidden, and the sixteen of the refinement follow it, only where they
+/// disagree: with two first rays the error is 0.088 (a vertex with a tenth of the
+/// light hidden passes for lit four times in five), with four 0.059, with eight 0.042.
 #[test]
 fn the_penumbra_of_a_small_light_follows_the_visible_part_of_it() {
     let screen = [v(-3., -3., 1.), v(-3., 3., 1.), v(0., 3., 1.), v(0., -3., 1.)];
@@ -235,7 +237,7 @@ fn the_penumbra_of_a_small_light_follows_the_visible_part_of_it() {
     let mean = err / count as f32;
     assert!(count > 500, "{count} vertices in the penumbra");
     assert!(
-        mean < 0.12,
+        mean < 0.07,
         "mean error {mean} of the visible part over {count} vertices"
     );
 }
