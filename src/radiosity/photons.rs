@@ -307,72 +307,113 @@ impl<'a> Tracer<'a> {
 
 /// Mirror groups at most: the photons of a light pick one, then a direction in the
 /// cone that holds it, and their density sums over every group's cone.
-const MAX_TARGETS: usize = 32;
-/// Stratified samples per light and group that estimate the power it sends there.
+const MAX_TARGETS: usize = 64;
+/// Rays per light and group, at most, that find how much of the light sent into the
+/// group's cone meets a mirror first; fewer when there are many lights and groups
+/// (at most [`AIM_RAYS`] in all, at least 16 a pair).
 const AIM_SAMPLES: u32 = 256;
-/// Every light and group keep at least this share of the largest power estimate, so
-/// that a group the estimate missed (a spot whose cone grazes it) is still reached,
-/// rarely: the aim stays unbiased.
-const AIM_FLOOR: f64 = 1e-5;
+/// See [`AIM_SAMPLES`].
+const AIM_RAYS: u32 = 1 << 18;
+/// A light and group keep at least this share of the power sent into the group's
+/// cone as their weight, whatever the rays found: a mirror the rays missed (a thin
+/// one, or one a spot's cone grazes) is still reached, and no photon's weight is
+/// more than 1 / AIM_DEFENSIVE times the cone's power over its density.
+const AIM_DEFENSIVE: f64 = 0.05;
 
 /// Where the lights' photons go: only light that a mirror passes on is traced from
 /// the lights (the deterministic shots hold the rest), so photons leave each light
-/// towards the bounding spheres of the surfaces that reflect like mirrors, not over
-/// all its directions. A teapot of polished metal, a few hundredths of a spot's cone,
-/// would otherwise catch a few hundredths of the photons (Jensen's projection maps,
-/// with cones instead of maps).
+/// towards the bounding spheres of groups of mirror triangles, not over all its
+/// directions (Jensen's projection maps, with cones instead of maps). A light and a
+/// group are chosen by the power that meets a mirror first, found by a few rays
+/// from each light into each group's cone: a loose group (thin metal tubes spread
+/// over a room) gets the photons that its mirrors take, not those its sphere takes.
 pub struct Aim {
-    /// Bounding spheres (centre, radius) of the mirror surfaces, grouped.
+    /// Bounding spheres (centre, radius) of groups of mirror triangles.
     spheres: Vec<(Vec3, f32)>,
     /// Per light: the chance of aiming at each sphere.
     per_light: Vec<Option<Alias>>,
     /// Per light: the chance of choosing it.
     pub light_pick: Option<Alias>,
+    /// The lights' power that meets a mirror first (a pilot's estimate).
+    pub met: f64,
+    /// The share of aimed photons that meet a mirror first (the pilot's).
+    pub success: f64,
 }
 
 impl Aim {
-    /// The mirror surfaces' spheres, and for each light the power it sends into each
-    /// one's cone (estimated by stratified samples), which weighs the choices.
-    pub fn new(scene: &Scene, lights: &[SampledLight]) -> Aim {
+    /// The mirror groups' spheres, and for each light the power it sends into each
+    /// one's cone that meets a mirror first (stratified samples, one ray each), which
+    /// weighs the choices.
+    pub fn new(scene: &Scene, accel: &dyn Accel, lights: &[SampledLight]) -> Aim {
         let spheres = mirror_spheres(scene);
-        let mut weights: Vec<Vec<f64>> = Vec::with_capacity(lights.len());
-        for light in lights {
-            let w = spheres
-                .iter()
-                .map(|&(c, r)| {
-                    let n = AIM_SAMPLES;
-                    let side = (n as f32).sqrt() as u32;
-                    let mut sum = 0.0f64;
-                    for k in 0..n {
-                        let (i, j) = (k % side, k / side);
-                        let u = Vec2::new((i as f32 + 0.5) / side as f32, (j as f32 + 0.5) / side as f32);
-                        // The same stratum picks the origin and the direction, in
-                        // transposed order, so that both sweep their ranges.
-                        let v = Vec2::new(u.y, u.x);
-                        let e = light.emit_towards(u, |x| match sphere_cone(x, c, r) {
-                            Some((axis, omega)) => Some((cone_direction(axis, omega, v), 1.0 / omega)),
-                            None => Some((cone_direction(Vec3::Z, 4.0 * PI, v), 1.0 / (4.0 * PI))),
-                        });
-                        sum += e.map_or(0.0, |e| f64::from(mean(e.power)));
-                    }
-                    sum / f64::from(n)
-                })
-                .collect();
-            weights.push(w);
-        }
-        let top = weights.iter().flatten().copied().fold(0.0, f64::max);
-        let floor = AIM_FLOOR * top;
-        for w in &mut weights {
-            for x in w.iter_mut() {
-                *x = x.max(floor);
-            }
-        }
+        let pairs = (lights.len() * spheres.len()).max(1) as u32;
+        let side = ((AIM_RAYS / pairs).clamp(16, AIM_SAMPLES) as f32).sqrt() as u32;
+        let n = side * side;
+        let found: Vec<Vec<(f64, f64)>> = lights
+            .par_iter()
+            .map(|light| {
+                spheres
+                    .iter()
+                    .map(|&(c, r)| {
+                        let (mut sent, mut met) = (0.0f64, 0.0f64);
+                        for k in 0..n {
+                            let (i, j) = (k % side, k / side);
+                            let u = Vec2::new((i as f32 + 0.5) / side as f32, (j as f32 + 0.5) / side as f32);
+                            // The same stratum picks the origin and the direction, in
+                            // transposed order, so that both sweep their ranges.
+                            let v = Vec2::new(u.y, u.x);
+                            let Some(e) = light.emit_towards(u, |x| cone_towards(x, c, r, v)) else {
+                                continue;
+                            };
+                            let power = f64::from(mean(e.power));
+                            sent += power;
+                            if meets_a_mirror(scene, accel, &e) {
+                                met += power;
+                            }
+                        }
+                        (met / f64::from(n), sent / f64::from(n))
+                    })
+                    .collect()
+            })
+            .collect();
+        let weights: Vec<Vec<f64>> = found
+            .iter()
+            .map(|f| {
+                f.iter()
+                    .map(|&(met, sent)| met.max(AIM_DEFENSIVE * sent))
+                    .collect()
+            })
+            .collect();
         let totals: Vec<f64> = weights.iter().map(|w| w.iter().sum()).collect();
-        Aim {
+        let mut aim = Aim {
             spheres,
             per_light: weights.iter().map(|w| Alias::new(w)).collect(),
-            light_pick: if top > 0.0 { Alias::new(&totals) } else { None },
+            light_pick: Alias::new(&totals),
+            met: 0.0,
+            success: 0.0,
+        };
+        // The groups' cones overlap, so the pairs' figures do not add up: a pilot of
+        // photons drawn as the tracer draws them finds the power that meets mirrors
+        // and the share of photons that count.
+        if let Some(table) = &aim.light_pick {
+            let (mut met, mut hits) = (0.0f64, 0u32);
+            for i in 0..AIM_PILOT {
+                let draw = |k: u32| uniform3(AIM_PILOT_SEED, 4 * i + k);
+                let [a, b, c] = draw(0);
+                let l = table.pick(a, b, c);
+                let [u, v, _] = draw(1);
+                let [c, d, _] = draw(3);
+                let e = lights[l]
+                    .emit_towards(Vec2::new(u, v), |x| aim.direction(l, x, draw(2), Vec2::new(c, d)));
+                if let Some(e) = e.filter(|e| meets_a_mirror(scene, accel, e)) {
+                    met += f64::from(mean(e.power)) / table.probability(l);
+                    hits += 1;
+                }
+            }
+            aim.met = met / f64::from(AIM_PILOT);
+            aim.success = f64::from(hits) / f64::from(AIM_PILOT);
         }
+        aim
     }
 
     /// A direction from `x` on light `l` and its density per steradian: a sphere
@@ -381,10 +422,7 @@ impl Aim {
     fn direction(&self, l: usize, x: Vec3, u: [f32; 3], v: Vec2) -> Option<(Vec3, f32)> {
         let pick = self.per_light.get(l)?.as_ref()?;
         let (c, r) = self.spheres[pick.pick(u[0], u[1], u[2])];
-        let dir = match sphere_cone(x, c, r) {
-            Some((axis, omega)) => cone_direction(axis, omega, v),
-            None => cone_direction(Vec3::Z, 4.0 * PI, v),
-        };
+        let (dir, _) = cone_towards(x, c, r, v)?;
         let mut pdf = 0.0f64;
         for (k, &(c, r)) in self.spheres.iter().enumerate() {
             let p = pick.probability(k);
@@ -405,44 +443,91 @@ impl Aim {
     }
 }
 
-/// Bounding spheres of the shapes whose material reflects like a mirror, merged into
-/// at most [`MAX_TARGETS`] groups (split at the median along the widest spread of
-/// their centres, and each group bounded by one sphere holding its members').
+/// Photons of the pilot that measures how much light meets mirrors (see [`Aim`]).
+const AIM_PILOT: u32 = 4096;
+/// Their seed (any fixed one: the pilot only shares the photons out).
+const AIM_PILOT_SEED: u32 = 0x41_494d;
+
+/// Whether light leaving as `e` meets a surface that reflects like a mirror first.
+fn meets_a_mirror(scene: &Scene, accel: &dyn Accel, e: &crate::emitters::Emission) -> bool {
+    let ray = Ray {
+        origin: match e.normal {
+            Some(n) => offset_from(e.origin, n, e.dir),
+            None => e.origin,
+        },
+        dir: e.dir,
+        tmin: 0.0,
+        tmax: f32::INFINITY,
+    };
+    accel.intersect(&ray).is_some_and(|h| {
+        let shape = &scene.shapes[h.shape as usize];
+        scene.bsdfs[shape.bsdf as usize].kind.has_mirror()
+    })
+}
+
+/// A triangle's centroid and corners.
+type CentredTriangle = (Vec3, [Vec3; 3]);
+
+/// A direction uniform in the cone from `x` that holds the sphere (`c`, `r`), chosen
+/// by `v`, and its density; over the whole sphere of directions where `x` is inside.
+fn cone_towards(x: Vec3, c: Vec3, r: f32, v: Vec2) -> Option<(Vec3, f32)> {
+    let (axis, omega) = sphere_cone(x, c, r).unwrap_or((Vec3::Z, 4.0 * PI));
+    Some((cone_direction(axis, omega, v), 1.0 / omega))
+}
+
+/// Bounding spheres of the triangles whose material reflects like a mirror, in at
+/// most [`MAX_TARGETS`] groups: the group of the largest sphere is split in two at
+/// the median of its triangles' centroids along their widest spread, until there
+/// are that many; each group is bounded by a sphere round its triangles' corners.
 fn mirror_spheres(scene: &Scene) -> Vec<(Vec3, f32)> {
-    let mut spheres: Vec<(Vec3, f32)> = scene
-        .shapes
-        .iter()
-        .filter(|s| scene.bsdfs[s.bsdf as usize].kind.has_mirror())
-        .filter_map(|s| s.mesh.bounds())
-        .map(|(lo, hi)| ((lo + hi) * 0.5, (hi - lo).length() * 0.5))
-        .collect();
-    let mut groups = vec![spheres.as_mut_slice()];
-    while groups.len() < MAX_TARGETS && groups.iter().any(|g| g.len() > 1) {
-        let i = (0..groups.len()).max_by_key(|&i| groups[i].len()).unwrap_or(0);
-        let g = groups.swap_remove(i);
+    // Each triangle: its centroid and corners.
+    let mut tris: Vec<CentredTriangle> = Vec::new();
+    for shape in &scene.shapes {
+        if !scene.bsdfs[shape.bsdf as usize].kind.has_mirror() {
+            continue;
+        }
+        let m = &shape.mesh;
+        for t in &m.indices {
+            let c = t.map(|i| m.positions[i as usize]);
+            tris.push(((c[0] + c[1] + c[2]) / 3.0, c));
+        }
+    }
+    let sphere = |g: &[CentredTriangle]| {
+        let centre = g.iter().map(|t| t.0).sum::<Vec3>() / g.len() as f32;
+        let radius = g
+            .iter()
+            .flat_map(|t| t.1)
+            .map(|p| (p - centre).length())
+            .fold(0.0, f32::max);
+        (centre, radius)
+    };
+    let mut groups: Vec<(&mut [CentredTriangle], (Vec3, f32))> = Vec::new();
+    if !tris.is_empty() {
+        let s = sphere(&tris);
+        groups.push((tris.as_mut_slice(), s));
+    }
+    while groups.len() < MAX_TARGETS {
+        let Some(i) = (0..groups.len())
+            .filter(|&i| groups[i].0.len() > 1)
+            .max_by(|&a, &b| groups[a].1 .1.total_cmp(&groups[b].1 .1))
+        else {
+            break;
+        };
+        let (g, _) = groups.swap_remove(i);
         let (lo, hi) = g
             .iter()
-            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), s| {
-                (lo.min(s.0), hi.max(s.0))
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), t| {
+                (lo.min(t.0), hi.max(t.0))
             });
         let axis = (hi - lo).max_position();
-        g.sort_by(|a, b| a.0[axis].total_cmp(&b.0[axis]));
-        let (a, b) = g.split_at_mut(g.len() / 2);
-        groups.push(a);
-        groups.push(b);
+        let mid = g.len() / 2;
+        g.select_nth_unstable_by(mid, |a, b| a.0[axis].total_cmp(&b.0[axis]));
+        let (a, b) = g.split_at_mut(mid);
+        let (sa, sb) = (sphere(a), sphere(b));
+        groups.push((a, sa));
+        groups.push((b, sb));
     }
-    groups
-        .into_iter()
-        .filter(|g| !g.is_empty())
-        .map(|g| {
-            let centre = g.iter().map(|s| s.0).sum::<Vec3>() / g.len() as f32;
-            let radius = g
-                .iter()
-                .map(|s| (s.0 - centre).length() + s.1)
-                .fold(0.0, f32::max);
-            (centre, radius)
-        })
-        .collect()
+    groups.into_iter().map(|(_, s)| s).collect()
 }
 
 /// Whether `dir`, a mirror reflection about the shading normal, leaves on the side of
@@ -502,13 +587,14 @@ mod tests {
         assert!(bound < 8.0 * power, "bound {bound} against {power}");
     }
 
-    /// Photons aimed at mirrors carry, into each mirror's cone, the power the light
-    /// sends there: I x solid angle for a point light, here with two mirror cubes
-    /// whose cones overlap (the density is the mixture's over both), and a diffuse
-    /// cube that gets no photons. A spot whose cone misses a mirror sends it next to
-    /// nothing.
+    /// Photons aimed at mirrors carry to each mirror the power the light sends it:
+    /// I times the solid angle the mirror cube is seen under, for a point light and
+    /// two mirror cubes whose groups' cones overlap (the density is the mixture's over
+    /// all the groups' cones). A spot whose cone meets no mirror gets no photons.
     #[test]
     fn photons_aimed_at_mirrors_carry_the_power_each_one_receives() {
+        use crate::accel::Bvh;
+        use crate::geometry::front_solid_angle;
         use crate::scene::BsdfKind;
         use crate::testutil::{box_outside, scene_with};
         let mirror = BsdfKind::Conductor {
@@ -528,7 +614,7 @@ mod tests {
         let s = scene_with(
             vec![
                 (cube(v(3.0, 0.0, 0.0), 0.3), mirror.clone()),
-                (cube(v(3.0, 0.4, 0.1), 0.2), mirror),
+                (cube(v(3.0, 0.75, 0.0), 0.2), mirror),
                 (cube(v(-3.0, 0.0, 0.0), 0.5), diffuse),
             ],
             vec![
@@ -546,35 +632,52 @@ mod tests {
             ],
             &[],
         );
+        let accel = Bvh::build(&s);
         let lights = SampledLight::prepare_all(&s);
-        let aim = Aim::new(&s, &lights);
-        assert_eq!(aim.spheres.len(), 2);
+        let aim = Aim::new(&s, &accel, &lights);
+        assert!(aim.spheres.len() > 2, "{} groups", aim.spheres.len());
         let table = aim.light_pick.as_ref().unwrap();
-        assert!(table.probability(1) < 1e-4, "{}", table.probability(1));
+        assert_eq!(table.probability(1), 0.0);
         let n = 400_000u32;
-        let mut got = [0.0f64; 2];
+        let mut got = [0.0f64; 3];
         for i in 0..n {
             let draw = |k: u32| uniform3(0x5eed, 4 * i + k);
             let [u, w, _] = draw(0);
             let [c, d, _] = draw(2);
-            let e = lights[0]
-                .emit_towards(Vec2::new(u, w), |x| aim.direction(0, x, draw(1), Vec2::new(c, d)))
-                .unwrap();
-            for (k, &(centre, r)) in aim.spheres.iter().enumerate() {
-                let (axis, omega) = sphere_cone(Vec3::ZERO, centre, r).unwrap();
-                if e.dir.angle_between(axis) <= (omega / (2.0 * PI)).mul_add(-1.0, 1.0).acos() {
-                    got[k] += f64::from(e.power.x) / f64::from(n);
-                }
+            let Some(e) =
+                lights[0].emit_towards(Vec2::new(u, w), |x| aim.direction(0, x, draw(1), Vec2::new(c, d)))
+            else {
+                continue;
+            };
+            let ray = Ray {
+                origin: e.origin,
+                dir: e.dir,
+                tmin: 0.0,
+                tmax: f32::INFINITY,
+            };
+            if let Some(h) = accel.intersect(&ray) {
+                got[h.shape as usize] += f64::from(e.power.x) / f64::from(n);
             }
         }
-        for (k, &(centre, r)) in aim.spheres.iter().enumerate() {
-            let (_, omega) = sphere_cone(Vec3::ZERO, centre, r).unwrap();
-            let want = 2.0 * f64::from(omega);
+        for (k, shape) in s.shapes.iter().enumerate().take(2) {
+            let m = &shape.mesh;
+            let tris: Vec<[Vec3; 3]> = m
+                .indices
+                .iter()
+                .map(|t| t.map(|i| m.positions[i as usize]))
+                .collect();
+            let want = 2.0 * f64::from(front_solid_angle(Vec3::ZERO, &tris));
             assert!(
                 (got[k] - want).abs() < 0.02 * want,
                 "mirror {k}: {} vs {want}",
                 got[k]
             );
         }
+        assert_eq!(got[2], 0.0);
+        // The pilot finds the power that meets mirrors, and nearly every aimed photon
+        // does (the groups are single triangles' spheres here).
+        let want: f64 = got[..2].iter().sum();
+        assert!((aim.met - want).abs() < 0.05 * want, "{} vs {want}", aim.met);
+        assert!(aim.success > 0.5, "{}", aim.success);
     }
 }
