@@ -332,6 +332,8 @@ pub struct Aim {
     spheres: Vec<(Vec3, f32)>,
     /// Per light: the chance of aiming at each sphere.
     per_light: Vec<Option<Alias>>,
+    /// Per point or spot light: the cone from it round each sphere.
+    cones: Vec<Option<Vec<Option<Cone>>>>,
     /// Per light: the chance of choosing it.
     pub light_pick: Option<Alias>,
     /// The lights' power that meets a mirror first (a pilot's estimate).
@@ -386,11 +388,23 @@ impl Aim {
             .collect();
         let totals: Vec<f64> = weights.iter().map(|w| w.iter().sum()).collect();
         let mut aim = Aim {
-            spheres,
             per_light: weights.iter().map(|w| Alias::new(w)).collect(),
+            cones: lights
+                .iter()
+                .map(|l| match l {
+                    SampledLight::Point { position, .. } | SampledLight::Spot { position, .. } => Some(
+                        spheres
+                            .iter()
+                            .map(|&(c, r)| sphere_cone(*position, c, r))
+                            .collect(),
+                    ),
+                    SampledLight::Area(_) => None,
+                })
+                .collect(),
             light_pick: Alias::new(&totals),
             met: 0.0,
             success: 0.0,
+            spheres,
         };
         // The groups' cones overlap, so the pairs' figures do not add up: a pilot of
         // photons drawn as the tracer draws them finds the power that meets mirrors
@@ -423,10 +437,22 @@ impl Aim {
         let pick = self.per_light.get(l)?.as_ref()?;
         let (c, r) = self.spheres[pick.pick(u[0], u[1], u[2])];
         let (dir, _) = cone_towards(x, c, r, v)?;
+        // The cones from a point or spot light are the same for all its photons.
+        let mut own = Vec::new();
+        let cones = match self.cones.get(l).and_then(Option::as_ref) {
+            Some(c) => c,
+            None => {
+                own.extend(self.spheres.iter().map(|&(c, r)| sphere_cone(x, c, r)));
+                &own
+            }
+        };
         let mut pdf = 0.0f64;
-        for (k, &(c, r)) in self.spheres.iter().enumerate() {
+        for (k, cone) in cones.iter().enumerate() {
             let p = pick.probability(k);
-            pdf += match sphere_cone(x, c, r) {
+            if p == 0.0 {
+                continue;
+            }
+            pdf += match *cone {
                 Some((axis, omega)) => {
                     // |dir - axis|^2 = 2 (1 - cos): precise for narrow cones.
                     let inside = (dir - axis).length_squared() <= omega / PI;
@@ -464,6 +490,9 @@ fn meets_a_mirror(scene: &Scene, accel: &dyn Accel, e: &crate::emitters::Emissio
         scene.bsdfs[shape.bsdf as usize].kind.has_mirror()
     })
 }
+
+/// A cone of directions: its unit axis and solid angle (see [`sphere_cone`]).
+type Cone = (Vec3, f32);
 
 /// A triangle's centroid and corners.
 type CentredTriangle = (Vec3, [Vec3; 3]);
