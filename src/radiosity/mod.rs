@@ -110,7 +110,7 @@ pub struct SolveSettings {
     /// Photons from the patches at most (0: no cap): on a model of hundreds of
     /// thousands of vertices the photons per vertex would cost more than the rest of
     /// the render. In a scene with mirrors the lights' photons come beside them (a
-    /// quarter to four times as many; see `Solver::photons`).
+    /// sixteenth to four times as many; see `Solver::photons`).
     #[serde(default)]
     pub max_photons: u64,
     /// Wall-clock budget in seconds (0: none): the deterministic shots stop at half of
