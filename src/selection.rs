@@ -611,18 +611,13 @@ fn falloff_points(j: &Judge, p: u32) -> Vec<FalloffPoint> {
     for piece in mesh.pieces(p) {
         let [a, b, c] = piece.corners;
         let x = (a + b + c) / 3.0;
-        let mut w = mesh.weights_on(&piece, x);
-        for k in 0..4 {
-            if !own.contains(&w.vertices[k]) || !(w.weights[k] > 0.0) {
-                w.weights[k] = 0.0;
-            }
-        }
-        let sum: f32 = w.weights.iter().sum();
+        // Weights over the patch's own vertices only (a lattice piece may weigh in a
+        // neighbouring patch's vertex at a seam), as covered vertices drop out.
+        let w = mesh.weights_on(&piece, x).uncover(|v| !own.contains(&v));
         let n = (b - a).cross(c - a).normalize_or_zero();
-        if !(sum > 0.0) || n == Vec3::ZERO {
+        if (0..4).any(|k| w.weights[k] > 0.0 && !own.contains(&w.vertices[k])) || n == Vec3::ZERO {
             continue;
         }
-        w.weights = w.weights.map(|wk| wk / sum);
         let front: Vec3 = (0..4)
             .map(|k| mesh.vertices[w.vertices[k] as usize].n * w.weights[k])
             .sum();

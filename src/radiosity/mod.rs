@@ -594,8 +594,8 @@ impl Solver<'_> {
 
     /// The stochastic part: photons carry what the deterministic shots left unshot
     /// (see [`photons`]), `--photons` per receiving vertex (`receiving` of them), at
-    /// most `--max-photons`, and the lights' photons aimed at mirrors. `trace` records the sources folded into general
-    /// radiosity.
+    /// most `--max-photons`, and the lights' photons aimed at mirrors. `trace` records
+    /// the sources folded into general radiosity.
     fn photons(&mut self, receiving: u64, start: Instant, budget: f64, progress: &dyn Progress, trace: bool) {
         let nv = self.mesh.vertices.len();
         let mut n = u64::from(self.settings.photons) * receiving;
@@ -614,13 +614,9 @@ impl Solver<'_> {
         // images 0.0203 -> 0.0102 FLIP apart, the solve 1.3 -> 2.6 s. Paper room (a
         // teapot, under 1 %): 0.08 n, 69 k photons, of which 80 % meet the teapot;
         // the solve back to its time before the aim, two solve seeds 0.0043 apart.
-        let light_photons = if photons::has_mirrors(self.scene) && aim.light_pick.is_some() {
-            let unshot: f64 = self
-                .unshot
-                .iter()
-                .zip(&self.mesh.vertices)
-                .map(|(u, v)| f64::from(mean(*u) * v.area))
-                .sum();
+        // (No mirror that a light reaches: no light to pick.)
+        let light_photons = if aim.light_pick.is_some() {
+            let unshot: f64 = (0..self.mesh.patches.len()).map(|p| self.unshot_power(p)).sum();
             let light = aim.met / aim.success.max(1e-3).sqrt();
             let share = if emit.is_empty() || !(unshot > 0.0) {
                 MAX_LIGHT_PHOTONS

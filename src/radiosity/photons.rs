@@ -5,8 +5,9 @@
 //!
 //! Photons leave the radiant patches in proportion to their unshot radiosity (and,
 //! when the scene has mirrors, the light sources, aimed at the mirrors ([`Aim`]):
-//! light -> mirror -> diffuse paths, paper Sect. 6). At every diffuse hit a photon leaves its reflected power on the
-//! vertices of the element hit, in proportion to their interpolation weights and
+//! light -> mirror -> diffuse paths, paper Sect. 6). At every diffuse hit a photon
+//! leaves its reflected power on the vertices of the element hit, in proportion to
+//! their interpolation weights and
 //! inversely to their areas, so a smooth field is estimated without bias; then it is
 //! reflected diffusely or specularly, or absorbed (Russian roulette on the
 //! reflectance). Light that comes straight from a source listed on the patch hit goes
@@ -19,7 +20,7 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use crate::accel::{Accel, Ray};
-use crate::emitters::SampledLight;
+use crate::emitters::{Emission, SampledLight};
 use crate::interaction::{offset_from, reflect, SurfacePoint};
 use crate::mesh::{point_in_polygon, Piece, RadiosityMesh};
 use crate::sampling::{cone_direction, cosine_direction, shot_seed, sphere_cone, uniform3, Alias};
@@ -147,27 +148,18 @@ impl<'a> Tracer<'a> {
                     false,
                 )
             } else {
-                let Some(table) = &self.aim.light_pick else {
+                let Some((e, prob)) = self.aim.emit(&self.lights, &mut next) else {
                     continue;
                 };
-                let [a, b, c] = next();
-                let l = table.pick(a, b, c);
-                let count = self.light_photons as f32 * table.probability(l) as f32;
-                let [u, v, _] = next();
-                let t = next();
-                let [c, d, _] = next();
-                let aim = |x| self.aim.direction(l, x, t, Vec2::new(c, d));
-                match self.lights[l].emit_towards(Vec2::new(u, v), aim) {
-                    Some(e) => (
-                        e.origin,
-                        e.normal.unwrap_or(Vec3::ZERO),
-                        e.dir,
-                        e.power / count,
-                        None,
-                        true,
-                    ),
-                    None => continue,
-                }
+                let count = self.light_photons as f32 * prob as f32;
+                (
+                    e.origin,
+                    e.normal.unwrap_or(Vec3::ZERO),
+                    e.dir,
+                    e.power / count,
+                    None,
+                    true,
+                )
             };
             if !(power.max_element() > 0.0) {
                 continue;
@@ -364,7 +356,7 @@ impl Aim {
                             // The same stratum picks the origin and the direction, in
                             // transposed order, so that both sweep their ranges.
                             let v = Vec2::new(u.y, u.x);
-                            let Some(e) = light.emit_towards(u, |x| cone_towards(x, c, r, v)) else {
+                            let Some(e) = light.emit_towards(u, |x| Some(cone_towards(x, c, r, v))) else {
                                 continue;
                             };
                             let power = f64::from(mean(e.power));
@@ -409,25 +401,42 @@ impl Aim {
         // The groups' cones overlap, so the pairs' figures do not add up: a pilot of
         // photons drawn as the tracer draws them finds the power that meets mirrors
         // and the share of photons that count.
-        if let Some(table) = &aim.light_pick {
-            let (mut met, mut hits) = (0.0f64, 0u32);
-            for i in 0..AIM_PILOT {
-                let draw = |k: u32| uniform3(AIM_PILOT_SEED, 4 * i + k);
-                let [a, b, c] = draw(0);
-                let l = table.pick(a, b, c);
-                let [u, v, _] = draw(1);
-                let [c, d, _] = draw(3);
-                let e = lights[l]
-                    .emit_towards(Vec2::new(u, v), |x| aim.direction(l, x, draw(2), Vec2::new(c, d)));
-                if let Some(e) = e.filter(|e| meets_a_mirror(scene, accel, e)) {
-                    met += f64::from(mean(e.power)) / table.probability(l);
+        let (mut met, mut hits) = (0.0f64, 0u32);
+        for i in 0..AIM_PILOT {
+            let mut k = 4 * i;
+            let mut next = || {
+                k += 1;
+                uniform3(AIM_PILOT_SEED, k - 1)
+            };
+            if let Some((e, prob)) = aim.emit(lights, &mut next) {
+                if meets_a_mirror(scene, accel, &e) {
+                    met += f64::from(mean(e.power)) / prob;
                     hits += 1;
                 }
             }
-            aim.met = met / f64::from(AIM_PILOT);
-            aim.success = f64::from(hits) / f64::from(AIM_PILOT);
         }
+        aim.met = met / f64::from(AIM_PILOT);
+        aim.success = f64::from(hits) / f64::from(AIM_PILOT);
         aim
+    }
+
+    /// A light photon drawn with the numbers `next` gives: a light picked by its
+    /// weight, a point on it, and a direction towards a mirror group. Returns the
+    /// light that leaves (its power over the direction's density) and the chance of
+    /// that light: divide by it, and by the number of photons.
+    pub fn emit(
+        &self,
+        lights: &[SampledLight],
+        next: &mut impl FnMut() -> [f32; 3],
+    ) -> Option<(Emission, f64)> {
+        let table = self.light_pick.as_ref()?;
+        let [a, b, c] = next();
+        let l = table.pick(a, b, c);
+        let [u, v, _] = next();
+        let t = next();
+        let [c, d, _] = next();
+        let e = lights[l].emit_towards(Vec2::new(u, v), |x| self.direction(l, x, t, Vec2::new(c, d)))?;
+        Some((e, table.probability(l)))
     }
 
     /// A direction from `x` on light `l` and its density per steradian: a sphere
@@ -436,23 +445,20 @@ impl Aim {
     fn direction(&self, l: usize, x: Vec3, u: [f32; 3], v: Vec2) -> Option<(Vec3, f32)> {
         let pick = self.per_light.get(l)?.as_ref()?;
         let (c, r) = self.spheres[pick.pick(u[0], u[1], u[2])];
-        let (dir, _) = cone_towards(x, c, r, v)?;
+        let (dir, _) = cone_towards(x, c, r, v);
         // The cones from a point or spot light are the same for all its photons.
-        let mut own = Vec::new();
-        let cones = match self.cones.get(l).and_then(Option::as_ref) {
-            Some(c) => c,
-            None => {
-                own.extend(self.spheres.iter().map(|&(c, r)| sphere_cone(x, c, r)));
-                &own
-            }
-        };
+        let fixed = self.cones.get(l).and_then(Option::as_ref);
         let mut pdf = 0.0f64;
-        for (k, cone) in cones.iter().enumerate() {
+        for (k, &(c, r)) in self.spheres.iter().enumerate() {
             let p = pick.probability(k);
             if p == 0.0 {
                 continue;
             }
-            pdf += match *cone {
+            let cone = match fixed {
+                Some(cones) => cones[k],
+                None => sphere_cone(x, c, r),
+            };
+            pdf += match cone {
                 Some((axis, omega)) => {
                     // |dir - axis|^2 = 2 (1 - cos): precise for narrow cones.
                     let inside = (dir - axis).length_squared() <= omega / PI;
@@ -475,7 +481,7 @@ const AIM_PILOT: u32 = 4096;
 const AIM_PILOT_SEED: u32 = 0x41_494d;
 
 /// Whether light leaving as `e` meets a surface that reflects like a mirror first.
-fn meets_a_mirror(scene: &Scene, accel: &dyn Accel, e: &crate::emitters::Emission) -> bool {
+fn meets_a_mirror(scene: &Scene, accel: &dyn Accel, e: &Emission) -> bool {
     let ray = Ray {
         origin: match e.normal {
             Some(n) => offset_from(e.origin, n, e.dir),
@@ -499,9 +505,9 @@ type CentredTriangle = (Vec3, [Vec3; 3]);
 
 /// A direction uniform in the cone from `x` that holds the sphere (`c`, `r`), chosen
 /// by `v`, and its density; over the whole sphere of directions where `x` is inside.
-fn cone_towards(x: Vec3, c: Vec3, r: f32, v: Vec2) -> Option<(Vec3, f32)> {
+fn cone_towards(x: Vec3, c: Vec3, r: f32, v: Vec2) -> (Vec3, f32) {
     let (axis, omega) = sphere_cone(x, c, r).unwrap_or((Vec3::Z, 4.0 * PI));
-    Some((cone_direction(axis, omega, v), 1.0 / omega))
+    (cone_direction(axis, omega, v), 1.0 / omega)
 }
 
 /// Bounding spheres of the triangles whose material reflects like a mirror, in at
@@ -670,14 +676,15 @@ mod tests {
         let n = 400_000u32;
         let mut got = [0.0f64; 3];
         for i in 0..n {
-            let draw = |k: u32| uniform3(0x5eed, 4 * i + k);
-            let [u, w, _] = draw(0);
-            let [c, d, _] = draw(2);
-            let Some(e) =
-                lights[0].emit_towards(Vec2::new(u, w), |x| aim.direction(0, x, draw(1), Vec2::new(c, d)))
-            else {
+            let mut k = 4 * i;
+            let mut next = || {
+                k += 1;
+                uniform3(0x5eed, k - 1)
+            };
+            let Some((e, prob)) = aim.emit(&lights, &mut next) else {
                 continue;
             };
+            assert_eq!(prob, 1.0);
             let ray = Ray {
                 origin: e.origin,
                 dir: e.dir,
