@@ -62,6 +62,12 @@ use shot::{Levels, ShootPoint, Touching, FIRST_LIGHT_RAYS};
 /// 11.6 s -> 2.5 s, FLIP 0.0331 -> 0.0340). No budget (`--max-photons 0`), no rule.
 const SHOT_RAY_WORTH: f64 = 8.0;
 
+/// The photon budget that [`SHOT_RAY_WORTH`] weighs a patch shot against is
+/// `--max-photons`, but at most this many: so a cap above it buys photons without
+/// moving which shots are dear (with the budget itself as the yardstick, the
+/// conference room could not take more photons without more patch shots elsewhere).
+const SHOT_YARDSTICK_PHOTONS: u64 = 1_000_000;
+
 /// The lights' photons (in a scene with mirrors) at least and at most, as multiples
 /// of the patches' (see `Solver::photons`).
 const MIN_LIGHT_PHOTONS: f64 = 1.0 / 16.0;
@@ -364,7 +370,7 @@ fn solve_inner(
     // per receiving vertex last time.
     let receiving = s.receiving();
     let photon_rays = if settings.photons > 0 {
-        2.0 * settings.max_photons as f64
+        2.0 * settings.max_photons.min(SHOT_YARDSTICK_PHOTONS) as f64
     } else {
         0.0
     };
