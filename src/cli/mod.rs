@@ -89,11 +89,43 @@ pub fn run(cli: Cli) -> Result<()> {
 fn load_scene(args: &SceneArgs, quiet: bool) -> Result<Scene> {
     let loaded = xml::load(&args.scene, &args.defines)?;
     if !quiet {
-        for w in &loaded.warnings {
+        for n in &loaded.notes {
+            eprintln!("radtrace: note: {n}");
+        }
+        for w in collapse_warnings(&loaded.warnings) {
             eprintln!("radtrace: warning: {w}");
         }
     }
     Ok(loaded.scene)
+}
+
+/// The warnings to print: of warnings that say the same thing at different places
+/// (`FILE:LINE:COL: message`), the first [`SAME_WARNINGS`], then one line counting the
+/// rest (a scene of 700 meshes with one unknown parameter each would bury the others).
+fn collapse_warnings(warnings: &[String]) -> Vec<String> {
+    const SAME_WARNINGS: usize = 3;
+    let what = |w: &str| w.split_once(": ").map_or(w, |(_, m)| m).to_string();
+    let mut count: std::collections::HashMap<String, usize> = Default::default();
+    for w in warnings {
+        *count.entry(what(w)).or_default() += 1;
+    }
+    let mut shown: std::collections::HashMap<String, usize> = Default::default();
+    let mut out = Vec::new();
+    for w in warnings {
+        let key = what(w);
+        let k = shown.entry(key.clone()).or_default();
+        *k += 1;
+        if *k <= SAME_WARNINGS {
+            out.push(w.clone());
+        }
+        if *k == SAME_WARNINGS && count[&key] > SAME_WARNINGS {
+            out.push(format!(
+                "... and {} more of the same: {key}",
+                count[&key] - SAME_WARNINGS
+            ));
+        }
+    }
+    out
 }
 
 /// Progress drawn on stderr by indicatif, one bar per stage ([`Progress`]); nothing
@@ -290,5 +322,30 @@ fn check_output_ext(path: &Path, allowed: &[&str]) -> Result<()> {
                 .collect::<Vec<_>>()
                 .join(" or ")
         ))),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::collapse_warnings;
+
+    /// Of warnings saying the same thing at many places, three are shown and one line
+    /// counts the rest; different warnings all stay, in order.
+    #[test]
+    fn warnings_repeated_over_many_places_are_counted_not_repeated() {
+        let mut w: Vec<String> = (1..=700)
+            .map(|k| format!("s.xml:{k}:3: unknown parameter 'x' of shape 'obj' ignored"))
+            .collect();
+        w.insert(1, "s.xml:2:1: texture 'bitmap' is not supported".into());
+        w.push("m.xml: the scene has no shapes".into());
+        let out = collapse_warnings(&w);
+        assert_eq!(out.len(), 6, "{out:?}");
+        assert!(out[1].contains("bitmap"));
+        assert_eq!(
+            out[4],
+            "... and 697 more of the same: unknown parameter 'x' of shape 'obj' ignored"
+        );
+        assert_eq!(out[5], "m.xml: the scene has no shapes");
+        assert_eq!(collapse_warnings(&w[..3]), w[..3].to_vec());
     }
 }

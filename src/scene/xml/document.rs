@@ -35,6 +35,9 @@ const KNOWN_INTEGRATORS: &[&str] = &[
 pub(super) struct Src<'a, 'i> {
     path: &'a Path,
     doc: &'a Document<'i>,
+    /// The file is a Mitsuba 0.6 (or older) scene: its names are upgraded as Mitsuba
+    /// 3 upgrades them ([`Loader::prop_name`]).
+    pub(super) legacy: bool,
 }
 
 impl<'a, 'i> Src<'a, 'i> {
@@ -79,6 +82,11 @@ pub(super) struct Loader {
     pub(super) bsdf_index: HashMap<String, u32>,
     pub(super) default_bsdf: [Option<u32>; 2],
     include_stack: Vec<PathBuf>,
+    /// Whether the file being read is a Mitsuba 0.6 scene (an included file without
+    /// a version of its own inherits it).
+    legacy: bool,
+    /// One line per file upgraded from Mitsuba 0.6.
+    pub(super) notes: Vec<String>,
 }
 
 pub(super) fn tag<'a>(n: Node<'a, '_>) -> &'a str {
@@ -113,6 +121,8 @@ impl Loader {
             bsdf_index: HashMap::new(),
             default_bsdf: [None; 2],
             include_stack: vec![path.canonicalize().unwrap_or(path.to_path_buf())],
+            legacy: false,
+            notes: Vec::new(),
         }
     }
 
@@ -208,8 +218,47 @@ impl Loader {
                 format!("malformed XML: {msg}"),
             )
         })?;
-        let s = Src { path, doc: &doc };
         let root = doc.root_element();
+        let version = (tag(root) == "scene")
+            .then(|| root.attribute("version"))
+            .flatten();
+        let legacy = match version {
+            None => self.legacy,
+            Some(v) => match parse::version(v) {
+                Ok(v) => v < (2, 0, 0),
+                Err(m) => {
+                    let s = Src {
+                        path,
+                        doc: &doc,
+                        legacy: false,
+                    };
+                    self.warn(s, root, format!("{m}; read as a Mitsuba 3 scene"));
+                    false
+                }
+            },
+        };
+        if let (true, Some(v)) = (legacy, version) {
+            self.notes.push(format!(
+                "{}: a Mitsuba {v} scene, upgraded in memory as Mitsuba 3 does (camelCase \
+                 names to snake_case, lookAt to lookat, uoffset/uscale to to_uv)",
+                path.display()
+            ));
+        }
+        let outer = std::mem::replace(&mut self.legacy, legacy);
+        let r = self.load_root(
+            Src {
+                path,
+                doc: &doc,
+                legacy,
+            },
+            top,
+        );
+        self.legacy = outer;
+        r
+    }
+
+    fn load_root(&mut self, s: Src, top: bool) -> Result<()> {
+        let root = s.doc.root_element();
         if tag(root) != "scene" {
             if top {
                 return Err(s.err(

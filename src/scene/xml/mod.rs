@@ -40,6 +40,8 @@ pub struct Loaded {
     pub scene: Scene,
     /// One line per warning.
     pub warnings: Vec<String>,
+    /// One line per notice (a Mitsuba 0.6 file upgraded in memory).
+    pub notes: Vec<String>,
 }
 
 /// Loads a Mitsuba 3 scene file; `defines` set `$name` parameters (`-D name=value`).
@@ -82,5 +84,6 @@ fn load_with(path: &Path, text: Option<&str>, defines: &[(String, String)]) -> R
     Ok(Loaded {
         scene: l.scene,
         warnings: l.warnings,
+        notes: l.notes,
     })
 }

@@ -7,6 +7,48 @@ use std::collections::HashMap;
 
 use glam::{Mat4, Vec3, Vec4};
 
+/// A scene file's `version` attribute as (major, minor, patch). Err: the message.
+pub fn version(v: &str) -> Result<(u32, u32, u32), String> {
+    let parts: Vec<&str> = v.trim().split('.').collect();
+    let num = |p: &str| p.parse::<u32>().ok();
+    match parts[..] {
+        [a, b, c] => match (num(a), num(b), num(c)) {
+            (Some(a), Some(b), Some(c)) => Ok((a, b, c)),
+            _ => Err(format!("version '{v}' is not three numbers major.minor.patch")),
+        },
+        _ => Err(format!("version '{v}' is not three numbers major.minor.patch")),
+    }
+}
+
+/// A Mitsuba 0.6 parameter name in Mitsuba 3's spelling, as Mitsuba 3's in-memory
+/// upgrade makes it: an underscore between a lower-case letter and the upper-case
+/// run that follows it, which becomes lower case (`toWorld` -> `to_world`, `intIOR`
+/// -> `int_ior`, `kNN` -> `k_nn`); other names stay as they are. As there, the
+/// letter right after an upper-case run starts no underscore (`aBcD` -> `a_bcD`).
+pub fn snake_case(name: &str) -> String {
+    let c: Vec<char> = name.chars().collect();
+    let mut out = String::with_capacity(name.len() + 4);
+    let mut i = 0;
+    while i < c.len() {
+        out.push(c[i]);
+        if c[i].is_ascii_lowercase() && c.get(i + 1).is_some_and(char::is_ascii_uppercase) {
+            out.push('_');
+            i += 1;
+            while i < c.len() && c[i].is_ascii_uppercase() {
+                out.push(c[i].to_ascii_lowercase());
+                i += 1;
+            }
+            if let Some(&next) = c.get(i) {
+                out.push(next);
+                i += 1;
+            }
+            continue;
+        }
+        i += 1;
+    }
+    out
+}
+
 /// Replaces every `$name` in `s`. As Mitsuba does, the longest declared name that
 /// follows the `$` wins. Err: the name after an unresolved `$`.
 pub fn substitute(s: &str, params: &HashMap<String, String>) -> Result<String, String> {

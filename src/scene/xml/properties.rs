@@ -194,12 +194,12 @@ impl Loader {
             match t {
                 "float" | "integer" | "boolean" | "string" | "rgb" | "spectrum" | "point" | "vector"
                 | "transform" => {
-                    let name = self.attr_req(s, c, "name")?;
+                    let name = self.prop_name(s, c, node)?;
                     let val = self.value(s, c, t)?;
                     push_prop(&mut obj, name, val, c)?;
                 }
                 "texture" => {
-                    let name = self.attr_req(s, c, "name")?;
+                    let name = self.prop_name(s, c, node)?;
                     let v = self.texture(s, c)?;
                     push_prop(&mut obj, name, Val::Texture(v), c)?;
                 }
@@ -215,12 +215,13 @@ impl Loader {
                     };
                     match target {
                         Target::Texture(v) => {
-                            let Some(name) = self.attr(s, c, "name")? else {
+                            if c.attribute("name").is_none() {
                                 return Err(s.err(
                                     c,
                                     format!("<ref> to texture '{id}' needs a 'name' (the parameter)"),
                                 ));
-                            };
+                            }
+                            let name = self.prop_name(s, c, node)?;
                             push_prop(&mut obj, name, Val::Texture(v), c)?;
                         }
                         target => obj.children.push(Child::Ref { node: c, id, target }),
@@ -240,7 +241,27 @@ impl Loader {
                 }
             }
         }
+        if s.legacy {
+            legacy_uv(&mut obj)?;
+        }
         Ok(obj)
+    }
+
+    /// The `name` of property element `c` of plugin `owner`; in a Mitsuba 0.6 file,
+    /// spelled as Mitsuba 3's upgrade spells it: snake_case, and a `diffuse` BSDF's
+    /// `diffuse_reflectance` is its `reflectance`.
+    fn prop_name(&self, s: Src, c: Node, owner: Node) -> Result<String> {
+        let name = self.attr_req(s, c, "name")?;
+        if !s.legacy {
+            return Ok(name);
+        }
+        let name = parse::snake_case(&name);
+        let diffuse = tag(owner) == "bsdf" && self.attr(s, owner, "type")?.as_deref() == Some("diffuse");
+        Ok(if diffuse && name == "diffuse_reflectance" {
+            "reflectance".to_string()
+        } else {
+            name
+        })
     }
 
     /// Warns about every parameter of `obj` that no one read.
@@ -318,6 +339,36 @@ impl Loader {
         }
         Ok((path, fname))
     }
+}
+
+/// Mitsuba 0.6's `uoffset`, `voffset`, `uscale` and `vscale` of a plugin become one
+/// `to_uv` transform, as Mitsuba 3's upgrade makes them: the offset, then the scale.
+fn legacy_uv(obj: &mut Obj) -> Result<()> {
+    const NAMES: [&str; 4] = ["uoffset", "voffset", "uscale", "vscale"];
+    let mut v = [0.0, 0.0, 1.0, 1.0];
+    let mut node = None;
+    for (k, name) in NAMES.into_iter().enumerate() {
+        let Some(i) = obj.props.iter().position(|p| p.name == name) else {
+            continue;
+        };
+        v[k] = match obj.props[i].val {
+            Val::Float(f) => f,
+            Val::Int(n) => n as f32,
+            _ => return Err(obj.mismatch(&obj.props[i], "a float")),
+        };
+        node.get_or_insert(obj.props[i].node);
+        obj.props.remove(i);
+    }
+    let Some(node) = node else {
+        return Ok(());
+    };
+    push_prop(obj, "to_uv".to_string(), Val::Transform(legacy_to_uv(v)), node)
+}
+
+/// The `to_uv` of Mitsuba 0.6's `[uoffset, voffset, uscale, vscale]`: uv' = scale
+/// (uv + offset).
+pub(super) fn legacy_to_uv([ou, ov, su, sv]: [f32; 4]) -> Mat4 {
+    Mat4::from_scale(Vec3::new(su, sv, 1.0)) * Mat4::from_translation(Vec3::new(ou, ov, 0.0))
 }
 
 /// Adds a property, refusing a second one of the same name.

@@ -959,3 +959,187 @@ fn text_loads_like_the_file_and_resolves_beside_its_path() {
     assert!(e.starts_with("/nonexistent/box.xml:8:24: "), "{e}");
     assert!(e.contains("/nonexistent/materials.xml"), "{e}");
 }
+
+/// Mitsuba 3's upgrade of Mitsuba 0.6 names: camelCase to snake_case, an upper-case
+/// run lowered as one word, and (as there) no new underscore right after a run.
+#[test]
+fn legacy_names_become_snake_case_as_mitsuba_3_makes_them() {
+    for (old, new) in [
+        ("toWorld", "to_world"),
+        ("intIOR", "int_ior"),
+        ("extIOR", "ext_ior"),
+        ("kNN", "k_nn"),
+        ("diffuseReflectance", "diffuse_reflectance"),
+        ("highQualityEdges", "high_quality_edges"),
+        ("alphaU", "alpha_u"),
+        ("aBcD", "a_bcD"),
+        ("radiance", "radiance"),
+        ("to_world", "to_world"),
+        ("URL", "URL"),
+    ] {
+        assert_eq!(parse::snake_case(old), new, "{old}");
+    }
+    assert_eq!(parse::version("0.6.0"), Ok((0, 6, 0)));
+    assert_eq!(parse::version(" 3.10.2 "), Ok((3, 10, 2)));
+    assert!(parse::version("0.6").is_err());
+    assert!(parse::version("a.b.c").is_err());
+}
+
+/// A Mitsuba 0.6 scene: camelCase names, `lookAt`, space-separated colours, a
+/// diffuse BSDF's `diffuseReflectance`, a `$parameter` whose name is camelCase (it
+/// stays so), an included file without a version of its own.
+const LEGACY_SCENE: &str = r#"<scene version="0.6.0">
+  <default name="fovValue" value="40"/>
+  <sensor type="perspective">
+    <float name="fov" value="$fovValue"/>
+    <string name="fovAxis" value="smaller"/>
+    <transform name="toWorld"><lookAt origin="0 1 5" target="0 1 0" up="0 1 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="64"/><integer name="height" value="48"/></film>
+  </sensor>
+  <bsdf type="diffuse" id="wall"><rgb name="diffuseReflectance" value="0.5 0.4 0.3"/></bsdf>
+  <bsdf type="plastic" id="shiny">
+    <float name="intIOR" value="1.6"/>
+    <rgb name="diffuseReflectance" value="0.2 0.3 0.4"/>
+  </bsdf>
+  <shape type="rectangle">
+    <transform name="toWorld"><scale value="2"/><rotate x="1" angle="-90"/></transform>
+    <ref id="wall"/>
+  </shape>
+  <include filename="ball.xml"/>
+  <shape type="rectangle">
+    <transform name="toWorld"><translate y="2"/><rotate x="1" angle="90"/></transform>
+    <emitter type="area"><rgb name="radiance" value="5 5 5"/></emitter>
+  </shape>
+  <emitter type="spot">
+    <transform name="toWorld"><lookAt origin="0 2 0" target="0 0 0" up="0 0 1"/></transform>
+    <rgb name="intensity" value="3"/>
+    <float name="cutoffAngle" value="30"/>
+    <float name="beamWidth" value="20"/>
+  </emitter>
+</scene>
+"#;
+
+const LEGACY_BALL: &str = r#"<shape type="sphere">
+  <point name="center" x="0" y="1" z="0"/><float name="radius" value="0.5"/><ref id="shiny"/>
+  <transform name="toWorld"><translate x="0.25"/></transform>
+</shape>
+"#;
+
+/// The same scene written for Mitsuba 3 by hand.
+const CURRENT_SCENE: &str = r#"<scene version="3.0.0">
+  <default name="fovValue" value="40"/>
+  <sensor type="perspective">
+    <float name="fov" value="$fovValue"/>
+    <string name="fov_axis" value="smaller"/>
+    <transform name="to_world"><lookat origin="0, 1, 5" target="0, 1, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="64"/><integer name="height" value="48"/></film>
+  </sensor>
+  <bsdf type="diffuse" id="wall"><rgb name="reflectance" value="0.5, 0.4, 0.3"/></bsdf>
+  <bsdf type="plastic" id="shiny">
+    <float name="int_ior" value="1.6"/>
+    <rgb name="diffuse_reflectance" value="0.2, 0.3, 0.4"/>
+  </bsdf>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="2"/><rotate x="1" angle="-90"/></transform>
+    <ref id="wall"/>
+  </shape>
+  <shape type="sphere">
+    <point name="center" x="0" y="1" z="0"/><float name="radius" value="0.5"/><ref id="shiny"/>
+    <transform name="to_world"><translate x="0.25"/></transform>
+  </shape>
+  <shape type="rectangle">
+    <transform name="to_world"><translate y="2"/><rotate x="1" angle="90"/></transform>
+    <emitter type="area"><rgb name="radiance" value="5, 5, 5"/></emitter>
+  </shape>
+  <emitter type="spot">
+    <transform name="to_world"><lookat origin="0, 2, 0" target="0, 0, 0" up="0, 0, 1"/></transform>
+    <rgb name="intensity" value="3"/>
+    <float name="cutoff_angle" value="30"/>
+    <float name="beam_width" value="20"/>
+  </emitter>
+</scene>
+"#;
+
+#[test]
+fn a_mitsuba_0_6_scene_and_its_mitsuba_3_twin_load_to_the_same_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let old_path = dir.path().join("old.xml");
+    fs::write(&old_path, LEGACY_SCENE).unwrap();
+    fs::write(dir.path().join("ball.xml"), LEGACY_BALL).unwrap();
+    let new_path = dir.path().join("new.xml");
+    fs::write(&new_path, CURRENT_SCENE).unwrap();
+    let old = load(&old_path, &[]).unwrap();
+    let new = load(&new_path, &[]).unwrap();
+    assert!(old.warnings.is_empty(), "{:?}", old.warnings);
+    assert!(new.warnings.is_empty(), "{:?}", new.warnings);
+    // One notice, naming the file and its version; none for the twin.
+    assert_eq!(old.notes.len(), 1, "{:?}", old.notes);
+    assert!(
+        old.notes[0].contains("old.xml") && old.notes[0].contains("0.6.0"),
+        "{}",
+        old.notes[0]
+    );
+    assert!(new.notes.is_empty());
+    let mut old_scene = old.scene;
+    old_scene.path = new.scene.path.clone();
+    assert_eq!(old_scene, new.scene);
+    // And the upgrade did something: the camera sits at z = 5, the diffuse wall has
+    // its reflectance, the sphere its offset, the spot its cone.
+    let s = &new.scene;
+    assert_eq!(s.shapes.len(), 3);
+    assert_eq!(s.lights.len(), 2);
+    assert!(s.bsdfs.iter().any(|b| format!("{b:?}").contains("0.4")));
+}
+
+/// Mitsuba 3 names in a file that says it is Mitsuba 0.6 are not upgraded twice; a
+/// 0.6 `uoffset`/`uscale` pair becomes one `to_uv` transform, uv' = scale (uv +
+/// offset) (a cube reads none, so the warning names `to_uv` alone); a version that is
+/// not three numbers is a warning naming the file and line.
+#[test]
+fn legacy_upgrade_edge_cases() {
+    let l = load_raw(
+        "<scene version=\"0.5.0\">\n<sensor type=\"perspective\"><transform name=\"to_world\">\
+         <lookat origin=\"0 0 5\" target=\"0 0 0\"/></transform></sensor>\n</scene>",
+        &[],
+    )
+    .unwrap();
+    let unknown = |l: &Loaded| -> Vec<String> {
+        l.warnings
+            .iter()
+            .filter(|w| w.contains("unknown"))
+            .cloned()
+            .collect()
+    };
+    assert!(unknown(&l).is_empty(), "{:?}", l.warnings);
+    assert!(close(
+        l.scene.sensors[0].to_world.w_axis.truncate(),
+        Vec3::new(0.0, 0.0, 5.0)
+    ));
+    assert_eq!(l.notes.len(), 1);
+    let l = load_raw(
+        &format!(
+            "<scene version=\"0.6.0\">\n{SENSOR}\n<shape type=\"cube\">\
+             <float name=\"uscale\" value=\"4\"/><float name=\"voffset\" value=\"0.5\"/></shape>\n</scene>"
+        ),
+        &[],
+    )
+    .unwrap();
+    let unknown = unknown(&l);
+    assert_eq!(unknown.len(), 1, "{:?}", l.warnings);
+    assert!(unknown[0].contains("'to_uv'"), "{:?}", l.warnings);
+    let m = properties::legacy_to_uv([0.25, 0.5, 4.0, 2.0]);
+    assert!(close(m.transform_point3(Vec3::ZERO), Vec3::new(1.0, 1.0, 0.0)));
+    assert!(close(
+        m.transform_point3(Vec3::new(1.0, 1.0, 0.0)),
+        Vec3::new(5.0, 3.0, 0.0)
+    ));
+    let l = load_raw(&format!("<scene version=\"zero\">\n{SENSOR}\n</scene>"), &[]).unwrap();
+    assert!(
+        l.warnings
+            .iter()
+            .any(|w| w.contains("scene.xml:1:") && w.contains("'zero'")),
+        "{:?}",
+        l.warnings
+    );
+    assert!(l.notes.is_empty());
+}

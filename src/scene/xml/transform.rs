@@ -14,7 +14,11 @@ impl Loader {
     pub(super) fn transform(&mut self, s: Src, c: Node) -> Result<Mat4> {
         let mut m = Mat4::IDENTITY;
         for op in c.children().filter(Node::is_element) {
-            let t = tag(op);
+            // Mitsuba 0.6 spelled it `lookAt`.
+            let t = match tag(op) {
+                "lookAt" if s.legacy => "lookat",
+                t => t,
+            };
             let bad = |msg: String| s.err(op, format!("<{t}>: {msg}"));
             let step = match t {
                 "translate" => {
