@@ -64,12 +64,14 @@ pub fn scene_with(
         lights: vec![],
         light_ids: vec![],
         sensors: vec![],
+        textures: vec![],
     };
     for (i, (mesh, kind)) in shapes.into_iter().enumerate() {
         s.bsdfs.push(Bsdf {
             name: format!("b{i}"),
             kind,
             twosided: false,
+            textures: Vec::new(),
         });
         s.shapes.push(Shape {
             name: format!("s{i}"),

@@ -11,7 +11,7 @@ use crate::emitters::{group_point, SampledLight};
 use crate::interaction::{reflect, SurfacePoint};
 use crate::mesh::RadiosityMesh;
 use crate::sampling::{derive, Stream};
-use crate::scene::{Bsdf, Rgb, Scene};
+use crate::scene::{Bsdf, BsdfKind, Rgb, Scene};
 use crate::selection::{Pick, Selection};
 
 /// Where the light of diffuse surfaces comes from.
@@ -150,11 +150,18 @@ impl<'a> Tracer<'a> {
         if cos_v <= 0.0 {
             return l;
         }
-        if bsdf.kind.has_diffuse() {
+        // The material here, its textures looked up; what the solution stored was
+        // reflected with their means, so it is scaled by the texture's ratio to them.
+        let kind = match bsdf.textures.is_empty() {
+            true => std::borrow::Cow::Borrowed(&bsdf.kind),
+            false => bsdf.kind_at(sp.uv(self.scene), &self.scene.textures),
+        };
+        if kind.has_diffuse() {
             counters.diffuse_hits += 1;
+            let textured = texture_ratio(kind.diffuse_albedo(), bsdf.kind.diffuse_albedo());
             let shade = Shade {
                 sp: &sp,
-                bsdf,
+                kind: &kind,
                 cos_v,
                 seed,
             };
@@ -185,7 +192,7 @@ impl<'a> Tracer<'a> {
                                 area_samples: self.area_samples,
                             };
                             let e = g.irradiance(&ctx, &sp, patch, seed, counters);
-                            let mut sum = (g.kept(&interp) + bsdf.kind.diffuse_albedo() * e)
+                            let mut sum = (g.kept(&interp) * textured + kind.diffuse_albedo() * e)
                                 * std::f32::consts::FRAC_1_PI;
                             for &l in g.folded(patch) {
                                 let rays = if self.sources[l as usize].is_area() {
@@ -203,7 +210,7 @@ impl<'a> Tracer<'a> {
                             }
                             sum
                         }
-                        _ => interp.apply(&selection.stored) * std::f32::consts::FRAC_1_PI,
+                        _ => interp.apply(&selection.stored) * textured * std::f32::consts::FRAC_1_PI,
                     };
                     for pick in selection.picks(patch) {
                         sum += self.sample_source(*pick, &shade, counters, sib.as_deref_mut(), usable);
@@ -213,7 +220,7 @@ impl<'a> Tracer<'a> {
             };
         }
         if depth < self.max_depth {
-            let m = bsdf.kind.mirror(cos_v);
+            let m = kind.mirror(cos_v);
             if m.max_element() > 0.0 {
                 let dir = reflect(ray.dir, sp.ns).normalize();
                 if dir.dot(sp.ng) > 0.0 {
@@ -255,8 +262,7 @@ impl<'a> Tracer<'a> {
         };
         let sp = h.sp;
         let closed = if n > 1 {
-            h.bsdf
-                .kind
+            h.kind
                 .lambertian()
                 .and_then(|f| Some(f * light.unoccluded_irradiance(sp.p, sp.ns)?))
         } else {
@@ -305,7 +311,7 @@ impl<'a> Tracer<'a> {
                 sib::set(q.record, pick.source, a, b, visible);
             }
             let share = (b - a) as f32 / n as f32;
-            let f = h.bsdf.kind.diffuse_brdf(cos_l, h.cos_v) * s.value * (cos_l * share);
+            let f = h.kind.diffuse_brdf(cos_l, h.cos_v) * s.value * (cos_l * share);
             unoccluded += f;
             if visible {
                 acc += f;
@@ -322,9 +328,20 @@ impl<'a> Tracer<'a> {
 /// What the direct light at one diffuse hit is computed for.
 struct Shade<'s> {
     sp: &'s SurfacePoint,
-    bsdf: &'s Bsdf,
+    /// The material at the point (textures looked up).
+    kind: &'s BsdfKind,
     cos_v: f32,
     seed: u32,
+}
+
+/// Per channel, a texture's value over the mean the solution was computed with (1
+/// where the mean is 0: nothing was stored there to scale).
+fn texture_ratio(here: Rgb, mean: Rgb) -> Rgb {
+    Vec3::select(
+        mean.cmpgt(Vec3::ZERO),
+        here / mean.max(Vec3::splat(f32::MIN_POSITIVE)),
+        Vec3::ONE,
+    )
 }
 
 #[cfg(test)]

@@ -530,3 +530,84 @@ fn the_floor_round_a_lamp_close_to_it_shows_the_closed_form() {
     assert!(checked > 100, "{checked} pixels checked");
     assert!(worst < 0.02, "worst pixel off by {worst}");
 }
+
+/// A texture scales what a surface reflects point by point: the room's walls given a
+/// two-texel texture whose mean is their uniform reflectance solve to the very same
+/// solution (pass 1 reads the mean), and each pixel on them is the uniform render's
+/// times its texel over that mean (1.5 or 0.5), its ray-traced light and its
+/// radiosity from the mesh alike; the table and the lamp (untextured) stay as they were.
+#[test]
+fn a_texture_scales_what_a_surface_reflects_by_its_texel_over_its_mean() {
+    use crate::scene::texture::TexFilter;
+    use crate::scene::{BsdfKind, TexField, TexSlot, Texture};
+    let plain = room();
+    let rho = Vec3::new(0.6, 0.5, 0.4);
+    let mut textured = room();
+    let mut t =
+        Texture::from_linear("t", 2, 1, vec![(rho * 1.5).to_array(), (rho * 0.5).to_array()]).unwrap();
+    t.filter = TexFilter::Nearest;
+    assert!((t.mean - rho).abs().max_element() < 1e-6);
+    textured.textures.push(t);
+    let mut walls = 0;
+    for b in &mut textured.bsdfs {
+        if b.kind == (BsdfKind::Diffuse { reflectance: rho }) {
+            b.textures.push(TexSlot {
+                path: Vec::new(),
+                field: TexField::Diffuse,
+                texture: 0,
+                factor: Vec3::ONE,
+            });
+            walls += 1;
+        }
+    }
+    assert_eq!(walls, 6);
+    let st = solve_settings(0.1, 4);
+    let (bp, bt) = (Bvh::build(&plain), Bvh::build(&textured));
+    let sp = solve(&plain, &bp, &st, &crate::progress::Silent).unwrap();
+    let stx = solve(&textured, &bt, &st, &crate::progress::Silent).unwrap();
+    assert_eq!(sp.general, stx.general);
+    let sel = SelectSettings {
+        area_samples: 16,
+        ..Default::default()
+    };
+    let mut rs = settings(Method::Local);
+    rs.refine = Refine {
+        max_level: 0,
+        sib: false,
+        ..Refine::default()
+    };
+    let a = draw(
+        &plain,
+        &bp,
+        &rs,
+        Some(&select(&plain, &sp, Method::Local, &sel, None).unwrap()),
+    );
+    let b = draw(
+        &textured,
+        &bt,
+        &rs,
+        Some(&select(&textured, &stx, Method::Local, &sel, None).unwrap()),
+    );
+    let (mut high, mut low, mut same) = (0, 0, 0);
+    for (p, q) in a.image.pixels.iter().zip(&b.image.pixels) {
+        if p.min_element() <= 1e-4 {
+            continue;
+        }
+        let r = *q / *p;
+        assert!(
+            r.min_element() > 0.5 - 1e-3 && r.max_element() < 1.5 + 1e-3,
+            "{q} over {p}"
+        );
+        let near = |k: f32| (r - Vec3::splat(k)).abs().max_element() < 1e-3;
+        high += usize::from(near(1.5));
+        low += usize::from(near(0.5));
+        same += usize::from(near(1.0));
+    }
+    let n = a.image.pixels.len();
+    // Untextured quads read their barycentrics as (u, v): u < 0.5, texel 0, on 3/4
+    // of each triangle.
+    assert!(
+        high > n / 3 && low > n / 10 && same > n / 50,
+        "{high} {low} {same} of {n}"
+    );
+}

@@ -2,11 +2,15 @@
 //!
 //! A [`Scene`] is immutable once loaded (see [`xml::load`]); every later stage reads it.
 
+pub mod texture;
 pub mod xml;
 
+use std::borrow::Cow;
 use std::path::PathBuf;
 
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec2, Vec3};
+
+pub use texture::Texture;
 
 use crate::geometry::TriMesh;
 
@@ -60,10 +64,84 @@ pub enum BsdfKind {
 pub struct Bsdf {
     /// The `id` in the scene file, or a generated name.
     pub name: String,
-    /// The reflection model.
+    /// The reflection model, its textured parameters at their textures' means (what
+    /// the radiosity pass uses).
     pub kind: BsdfKind,
     /// Reflects on both sides (`twosided`); otherwise the back side is black.
     pub twosided: bool,
+    /// The parameters of `kind` that textures give, point by point.
+    pub textures: Vec<TexSlot>,
+}
+
+/// Which parameter of a [`BsdfKind`] a texture gives.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TexField {
+    /// `diffuse`'s `reflectance`, `plastic`'s `diffuse_reflectance`.
+    Diffuse,
+    /// `conductor`'s and `plastic`'s `specular_reflectance`.
+    Specular,
+    /// `blendbsdf`'s `weight` (the texture's first channel).
+    Weight,
+}
+
+/// A textured parameter of a material: where in the (blended) model it sits, which
+/// texture gives it, times what.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TexSlot {
+    /// The way down nested blends from the outermost: `false` its `a`, `true` its `b`.
+    pub path: Vec<bool>,
+    /// The parameter.
+    pub field: TexField,
+    /// Index into [`Scene::textures`].
+    pub texture: u32,
+    /// The value is the texture times this (a conductor's reflectance at normal
+    /// incidence, for instance).
+    pub factor: Rgb,
+}
+
+impl Bsdf {
+    /// The reflection model at surface parameters `uv`: `kind` with its textured
+    /// parameters looked up there (`kind` itself when none is).
+    pub fn kind_at(&self, uv: Vec2, textures: &[Texture]) -> Cow<'_, BsdfKind> {
+        if self.textures.is_empty() {
+            return Cow::Borrowed(&self.kind);
+        }
+        let mut kind = self.kind.clone();
+        for slot in &self.textures {
+            let Some(t) = textures.get(slot.texture as usize) else {
+                continue;
+            };
+            let value = t.eval(uv) * slot.factor;
+            let mut k = &mut kind;
+            for &b in &slot.path {
+                match k {
+                    BsdfKind::Blend { a, b: bb, .. } => k = if b { bb } else { a },
+                    _ => break,
+                }
+            }
+            match (k, slot.field) {
+                (BsdfKind::Diffuse { reflectance }, TexField::Diffuse) => {
+                    *reflectance = value.clamp(Vec3::ZERO, Vec3::ONE)
+                }
+                (
+                    BsdfKind::Plastic {
+                        diffuse_reflectance, ..
+                    },
+                    TexField::Diffuse,
+                ) => *diffuse_reflectance = value.clamp(Vec3::ZERO, Vec3::ONE),
+                (BsdfKind::Conductor { specular_reflectance }, TexField::Specular)
+                | (
+                    BsdfKind::Plastic {
+                        specular_reflectance, ..
+                    },
+                    TexField::Specular,
+                ) => *specular_reflectance = value.max(Vec3::ZERO),
+                (BsdfKind::Blend { weight, .. }, TexField::Weight) => *weight = value.x.clamp(0.0, 1.0),
+                _ => {}
+            }
+        }
+        Cow::Owned(kind)
+    }
 }
 
 impl Default for Bsdf {
@@ -75,6 +153,7 @@ impl Default for Bsdf {
                 reflectance: Vec3::splat(0.5),
             },
             twosided: false,
+            textures: Vec::new(),
         }
     }
 }
@@ -242,4 +321,6 @@ pub struct Scene {
     pub light_ids: Vec<Option<String>>,
     /// Views, in file order.
     pub sensors: Vec<Sensor>,
+    /// Image textures that materials refer to ([`TexSlot::texture`]).
+    pub textures: Vec<Texture>,
 }

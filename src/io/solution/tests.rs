@@ -65,6 +65,7 @@ fn box_scene() -> Scene {
                     reflectance: Vec3::new(0.5, 0.4, 0.3),
                 },
                 twosided: false,
+                textures: Vec::new(),
             },
             Bsdf {
                 name: "white".into(),
@@ -72,6 +73,7 @@ fn box_scene() -> Scene {
                     reflectance: Vec3::splat(0.8),
                 },
                 twosided: true,
+                textures: Vec::new(),
             },
         ],
         lights: vec![Light::Point {
@@ -80,6 +82,7 @@ fn box_scene() -> Scene {
         }],
         light_ids: vec![],
         sensors: vec![],
+        textures: vec![],
     }
 }
 

@@ -8,7 +8,7 @@ use roxmltree::Node;
 use super::document::{tag, Loader, Src};
 use super::parse;
 use super::properties::{Child, Obj, Target, Val};
-use crate::scene::{Bsdf, BsdfKind};
+use crate::scene::{Bsdf, BsdfKind, TexField, TexSlot};
 use crate::Result;
 
 impl Loader {
@@ -17,6 +17,18 @@ impl Loader {
         self.check_attrs(s, c, &["type", "id", "name"]);
         let ty = self.attr_req(s, c, "type")?;
         let obj = self.collect(s, c, format!("bsdf '{ty}'"))?;
+        let mut textures = Vec::new();
+        // The image that gives parameter `name` as `field`, if one does.
+        let mut slot = |name: &str, field: TexField, factor: Vec3| {
+            if let Some(texture) = obj.texture_image(name) {
+                textures.push(TexSlot {
+                    path: Vec::new(),
+                    field,
+                    texture,
+                    factor,
+                });
+            }
+        };
         let (kind, twosided) = match ty.as_str() {
             "diffuse" | "roughdiffuse" => {
                 if ty == "roughdiffuse" {
@@ -25,6 +37,7 @@ impl Loader {
                     obj.get("use_fast_approx");
                 }
                 let reflectance = obj.reflectance("reflectance", 0.5)?;
+                slot("reflectance", TexField::Diffuse, Vec3::ONE);
                 (BsdfKind::Diffuse { reflectance }, false)
             }
             "conductor" | "roughconductor" => {
@@ -34,7 +47,9 @@ impl Loader {
                         obj.get(p);
                     }
                 }
-                (self.conductor(s, c, &obj)?, false)
+                let (kind, f0) = self.conductor(s, c, &obj)?;
+                slot("specular_reflectance", TexField::Specular, f0);
+                (kind, false)
             }
             "plastic" | "roughplastic" => {
                 if ty == "roughplastic" {
@@ -48,6 +63,8 @@ impl Loader {
                 let int_ior = ior(&obj, "int_ior", 1.49)?;
                 let ext_ior = ior(&obj, "ext_ior", 1.000277)?;
                 let nonlinear = obj.boolean("nonlinear", false)?;
+                slot("diffuse_reflectance", TexField::Diffuse, Vec3::ONE);
+                slot("specular_reflectance", TexField::Specular, Vec3::ONE);
                 let kind = BsdfKind::Plastic {
                     diffuse_reflectance,
                     specular_reflectance,
@@ -74,6 +91,7 @@ impl Loader {
                         ))
                     }
                 }
+                textures = inner[0].textures.clone();
                 (inner[0].kind.clone(), true)
             }
             "blendbsdf" => {
@@ -101,6 +119,13 @@ impl Loader {
                     );
                 }
                 let twosided = a.twosided || b.twosided;
+                slot("weight", TexField::Weight, Vec3::ONE);
+                for (side, inner) in [(false, &a), (true, &b)] {
+                    textures.extend(inner.textures.iter().map(|t| TexSlot {
+                        path: [side].into_iter().chain(t.path.iter().copied()).collect(),
+                        ..t.clone()
+                    }));
+                }
                 let kind = BsdfKind::Blend {
                     weight,
                     a: Box::new(a.kind),
@@ -119,11 +144,13 @@ impl Loader {
                     c,
                     format!("bsdf '{ty}' is not supported: its nested bsdf is used alone"),
                 );
+                textures = first.textures;
                 (first.kind, first.twosided)
             }
             "principled" | "principledthin" => {
                 obj.mark_all();
                 let reflectance = obj.reflectance("base_color", 0.5)?;
+                slot("base_color", TexField::Diffuse, Vec3::ONE);
                 self.warn(
                     s,
                     c,
@@ -147,6 +174,7 @@ impl Loader {
             name: id.unwrap_or(ty),
             kind,
             twosided,
+            textures,
         };
         self.register(s, c, Target::Bsdf(b.clone()))?;
         Ok(b)
@@ -160,8 +188,9 @@ impl Loader {
         );
     }
 
-    /// A conductor as a mirror of constant reflectance.
-    fn conductor(&mut self, s: Src, c: Node, obj: &Obj) -> Result<BsdfKind> {
+    /// A conductor as a mirror of constant reflectance, and its reflectance at normal
+    /// incidence (which multiplies `specular_reflectance`).
+    fn conductor(&mut self, s: Src, c: Node, obj: &Obj) -> Result<(BsdfKind, Vec3)> {
         let scale = obj.reflectance("specular_reflectance", 1.0)?;
         let material = obj.string("material")?;
         let eta = obj.scalar("eta")?;
@@ -212,9 +241,12 @@ impl Loader {
                 },
             }
         };
-        Ok(BsdfKind::Conductor {
-            specular_reflectance: scale * f0,
-        })
+        Ok((
+            BsdfKind::Conductor {
+                specular_reflectance: scale * f0,
+            },
+            f0,
+        ))
     }
 
     /// The nested bsdfs (elements or refs) of `obj`, in order; other nested

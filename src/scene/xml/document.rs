@@ -87,6 +87,8 @@ pub(super) struct Loader {
     legacy: bool,
     /// One line per file upgraded from Mitsuba 0.6.
     pub(super) notes: Vec<String>,
+    /// Image files read, with their `raw` flag: their index in the scene's textures.
+    pub(super) images: HashMap<(PathBuf, bool), u32>,
 }
 
 pub(super) fn tag<'a>(n: Node<'a, '_>) -> &'a str {
@@ -116,6 +118,7 @@ impl Loader {
                 lights: Vec::new(),
                 light_ids: Vec::new(),
                 sensors: Vec::new(),
+                textures: Vec::new(),
             },
             ids: HashMap::new(),
             bsdf_index: HashMap::new(),
@@ -123,6 +126,7 @@ impl Loader {
             include_stack: vec![path.canonicalize().unwrap_or(path.to_path_buf())],
             legacy: false,
             notes: Vec::new(),
+            images: HashMap::new(),
         }
     }
 

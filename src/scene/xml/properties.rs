@@ -20,9 +20,16 @@ use crate::Result;
 #[derive(Debug, Clone)]
 pub(super) enum Target {
     Bsdf(Bsdf),
-    /// A texture reduced to one colour, or `None` (the parameter keeps its default).
-    Texture(Option<Rgb>),
+    Texture(TexVal),
     Other(&'static str),
+}
+
+/// A `<texture>` as a parameter's value: its mean colour (`None`: the parameter keeps
+/// its default) and, for an image, its index in the scene's textures.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct TexVal {
+    pub(super) mean: Option<Rgb>,
+    pub(super) image: Option<u32>,
 }
 
 impl Target {
@@ -45,7 +52,7 @@ pub(super) enum Val {
     Rgb(Rgb),
     Vec3(Vec3),
     Transform(Mat4),
-    Texture(Option<Rgb>),
+    Texture(TexVal),
 }
 
 impl Val {

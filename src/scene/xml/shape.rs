@@ -24,12 +24,19 @@ impl Loader {
             "obj" | "ply" => {
                 let (path, fname) = self.file_param(&obj, "filename")?;
                 let face_normals = obj.boolean("face_normals", false)?;
-                obj.get("flip_tex_coords");
-                let mesh = if ty == "obj" {
+                // As Mitsuba's loaders: v runs up the image in the file, down it in
+                // a texture lookup.
+                let flip = obj.boolean("flip_tex_coords", true)?;
+                let mut mesh = if ty == "obj" {
                     read_obj(&path, face_normals)?
                 } else {
                     read_ply(&path, face_normals)?
                 };
+                if flip {
+                    for uv in &mut mesh.uvs {
+                        uv.y = 1.0 - uv.y;
+                    }
+                }
                 (mesh, format!("{ty}:{fname}"))
             }
             "bezier" => {

@@ -499,7 +499,8 @@ fn twosided_blend_and_plastic() {
         Bsdf {
             name: "ts".into(),
             kind: red.clone(),
-            twosided: true
+            twosided: true,
+            textures: Vec::new(),
         }
     );
     assert!(b(1).twosided);
@@ -1142,4 +1143,96 @@ fn legacy_upgrade_edge_cases() {
         l.warnings
     );
     assert!(l.notes.is_empty());
+}
+
+/// Writes a 2 x 1 PNG beside the scene: texel 0 (left) bytes `a`, texel 1 `b`.
+fn write_png(dir: &std::path::Path, name: &str, a: [u8; 3], b: [u8; 3]) {
+    let img = image::RgbImage::from_fn(2, 1, |x, _| image::Rgb(if x == 0 { a } else { b }));
+    img.save(dir.join(name)).unwrap();
+}
+
+/// A `bitmap` reflectance: the PNG's bytes sRGB-decoded (128 -> 0.2158605), the
+/// material's reflectance their mean (what pass 1 uses), each point its texel; one
+/// file read once for two materials; `raw` reads the bytes as linear; an OBJ's v
+/// runs up the image (Mitsuba's `flip_tex_coords`).
+#[test]
+fn a_bitmap_texture_gives_the_reflectance_texel_by_texel() {
+    let dir = tempfile::tempdir().unwrap();
+    write_png(dir.path(), "t.png", [255, 0, 0], [0, 128, 255]);
+    fs::write(
+        dir.path().join("m.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n",
+    )
+    .unwrap();
+    let xml = scene(&[
+        r#"<texture type="bitmap" id="wood"><string name="filename" value="t.png"/>"#,
+        r#"<string name="filter_type" value="nearest"/></texture>"#,
+        r#"<bsdf type="diffuse" id="a"><ref name="reflectance" id="wood"/></bsdf>"#,
+        r#"<bsdf type="plastic" id="b"><texture type="bitmap" name="diffuse_reflectance">"#,
+        r#"<string name="filename" value="t.png"/><boolean name="raw" value="true"/></texture></bsdf>"#,
+        r#"<shape type="obj"><string name="filename" value="m.obj"/><ref id="a"/></shape>"#,
+        r#"<shape type="rectangle"><ref id="b"/></shape>"#,
+    ]);
+    let path = dir.path().join("scene.xml");
+    fs::write(&path, xml).unwrap();
+    let l = load(&path, &[]).unwrap();
+    let unknown: Vec<&String> = l.warnings.iter().filter(|w| !w.contains("light")).collect();
+    assert!(unknown.is_empty(), "{unknown:?}");
+    let s = &l.scene;
+    assert_eq!(s.textures.len(), 2, "{:?}", s.textures);
+    let g = 0.215_860_5;
+    let a = &s.bsdfs[s.shapes[0].bsdf as usize];
+    match a.kind {
+        BsdfKind::Diffuse { reflectance } => assert!(close(reflectance, Vec3::new(0.5, 0.5 * g, 0.5))),
+        ref k => panic!("{k:?}"),
+    }
+    let at = |b: &Bsdf, u: f32, v: f32| -> Vec3 {
+        match b.kind_at(glam::Vec2::new(u, v), &s.textures).into_owned() {
+            BsdfKind::Diffuse { reflectance } => reflectance,
+            BsdfKind::Plastic {
+                diffuse_reflectance, ..
+            } => diffuse_reflectance,
+            k => panic!("{k:?}"),
+        }
+    };
+    assert!(close(at(a, 0.2, 0.5), Vec3::new(1.0, 0.0, 0.0)));
+    assert!(close(at(a, 0.7, 0.5), Vec3::new(0.0, g, 1.0)));
+    let b = &s.bsdfs[s.shapes[1].bsdf as usize];
+    assert!(close(at(b, 0.25, 0.5), Vec3::new(1.0, 0.0, 0.0)));
+    assert!(close(at(b, 0.75, 0.5), Vec3::new(0.0, 128.0 / 255.0, 1.0)));
+    // The OBJ's (u, v) = (0, 1) is the image's top left: v flipped to 0.
+    assert_eq!(s.shapes[0].mesh.uvs[2], glam::Vec2::new(0.0, 0.0));
+    assert_eq!(s.shapes[0].mesh.uvs[0], glam::Vec2::new(0.0, 1.0));
+}
+
+/// Bad textures: a file that is no image, a missing file, an unknown wrap mode or
+/// filter: one error naming the scene file and the line of the parameter.
+#[test]
+fn bad_textures_are_errors_naming_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    write_png(dir.path(), "t.png", [1, 2, 3], [4, 5, 6]);
+    fs::write(dir.path().join("fake.png"), "not an image").unwrap();
+    for (line, want) in [
+        (r#"<string name="filename" value="fake.png"/>"#, "cannot decode"),
+        (r#"<string name="filename" value="gone.jpg"/>"#, "no such file"),
+        (
+            r#"<string name="filename" value="t.png"/><string name="wrap_mode" value="tile"/>"#,
+            "'tile' is not 'repeat', 'mirror' or 'clamp'",
+        ),
+        (
+            r#"<string name="filename" value="t.png"/><string name="filter_type" value="cubic"/>"#,
+            "'cubic' is not 'bilinear' or 'nearest'",
+        ),
+    ] {
+        let xml = scene(&[
+            r#"<bsdf type="diffuse" id="a"><texture type="bitmap" name="reflectance">"#,
+            line,
+            "</texture></bsdf>",
+        ]);
+        let path = dir.path().join("scene.xml");
+        fs::write(&path, xml).unwrap();
+        let e = load(&path, &[]).unwrap_err().to_string();
+        assert!(e.contains("scene.xml:4:"), "{e}");
+        assert!(e.contains(want), "{e}");
+    }
 }

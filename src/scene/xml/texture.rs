@@ -1,13 +1,14 @@
 //! Colours: reflectance and emission values (`<rgb>`, `<spectrum>`, a grey
 //! `<float>`, a `<texture>`), spectra and textures, each reduced to one RGB colour.
 
-use glam::Vec3;
+use glam::{Affine2, Vec3};
 use roxmltree::Node;
 
 use super::document::{read_text, Loader, Src};
 use super::parse;
-use super::properties::{Obj, Target, Val};
+use super::properties::{Obj, Target, TexVal, Val};
 use crate::error::{Error, Pos};
+use crate::scene::texture::{TexFilter, TexWrap, Texture};
 use crate::scene::Rgb;
 use crate::Result;
 
@@ -20,7 +21,7 @@ impl<'a, 'i> Obj<'a, 'i> {
                 Val::Rgb(c) => Ok(c),
                 Val::Float(v) => Ok(Vec3::splat(v)),
                 Val::Int(i) => Ok(Vec3::splat(i as f32)),
-                Val::Texture(t) => Ok(t.unwrap_or(Vec3::splat(default))),
+                Val::Texture(t) => Ok(t.mean.unwrap_or(Vec3::splat(default))),
                 _ => Err(self.mismatch(p, "a colour (rgb, spectrum or float)")),
             },
         }
@@ -54,10 +55,22 @@ impl<'a, 'i> Obj<'a, 'i> {
             Some(p) => match p.val {
                 Val::Float(v) => Ok(Some(v)),
                 Val::Int(i) => Ok(Some(i as f32)),
-                Val::Rgb(c) | Val::Texture(Some(c)) => Ok(Some(c.element_sum() / 3.0)),
-                Val::Texture(None) => Ok(None),
+                Val::Rgb(c) => Ok(Some(c.element_sum() / 3.0)),
+                Val::Texture(TexVal { mean: Some(c), .. }) => Ok(Some(c.element_sum() / 3.0)),
+                Val::Texture(TexVal { mean: None, .. }) => Ok(None),
                 _ => Err(self.mismatch(p, "a float")),
             },
+        }
+    }
+}
+
+impl Obj<'_, '_> {
+    /// The image texture that gives parameter `name`, if one does (its index in the
+    /// scene's textures).
+    pub(super) fn texture_image(&self, name: &str) -> Option<u32> {
+        match self.get(name)?.val {
+            Val::Texture(t) => t.image,
+            _ => None,
         }
     }
 }
@@ -127,32 +140,113 @@ impl Loader {
         Ok(Val::Rgb(Vec3::splat(mean)))
     }
 
-    /// A `<texture>`, reduced to one colour when that makes sense.
-    pub(super) fn texture(&mut self, s: Src, c: Node) -> Result<Option<Rgb>> {
+    /// A `<texture>`: an image (`bitmap`), or one reduced to one colour when that
+    /// makes sense.
+    pub(super) fn texture(&mut self, s: Src, c: Node) -> Result<TexVal> {
         self.check_attrs(s, c, &["type", "id", "name"]);
         let ty = self.attr_req(s, c, "type")?;
         let obj = self.collect(s, c, format!("texture '{ty}'"))?;
-        obj.mark_all();
         let v = match ty.as_str() {
+            "bitmap" => {
+                let t = self.bitmap(&obj)?;
+                self.finish(&obj);
+                t
+            }
             "checkerboard" => {
+                obj.mark_all();
                 let mean = 0.5 * (obj.color("color0", 0.4)? + obj.color("color1", 0.2)?);
                 self.warn(
                     s,
                     c,
                     format!("checkerboard texture replaced by its mean colour {mean}"),
                 );
-                Some(mean)
+                TexVal {
+                    mean: Some(mean),
+                    image: None,
+                }
             }
             t => {
+                obj.mark_all();
                 self.warn(
                     s,
                     c,
                     format!("texture '{t}' is not supported: the parameter keeps its default"),
                 );
-                None
+                TexVal {
+                    mean: None,
+                    image: None,
+                }
             }
         };
         self.register(s, c, Target::Texture(v))?;
         Ok(v)
+    }
+
+    /// A `bitmap` texture (Mitsuba 3's parameters: `filename`, `filter_type`,
+    /// `wrap_mode`, `raw`, `to_uv`), added to the scene's textures; one file read
+    /// once however many bitmaps name it with the same settings.
+    fn bitmap(&mut self, obj: &Obj) -> Result<TexVal> {
+        let (path, fname) = self.file_param(obj, "filename")?;
+        let raw = obj.boolean("raw", false)?;
+        let filter = match obj.string("filter_type")?.as_deref().unwrap_or("bilinear") {
+            "bilinear" => TexFilter::Bilinear,
+            "nearest" => TexFilter::Nearest,
+            f => return Err(obj.err_param("filter_type", format!("= '{f}' is not 'bilinear' or 'nearest'"))),
+        };
+        let wrap = match obj.string("wrap_mode")?.as_deref().unwrap_or("repeat") {
+            "repeat" => TexWrap::Repeat,
+            "mirror" => TexWrap::Mirror,
+            "clamp" => TexWrap::Clamp,
+            w => {
+                return Err(obj.err_param(
+                    "wrap_mode",
+                    format!("= '{w}' is not 'repeat', 'mirror' or 'clamp'"),
+                ))
+            }
+        };
+        let to_uv = match obj.transform("to_uv")? {
+            // The 2D part of the 4x4 transform: x and y, translation in the last column.
+            Some(m) => Affine2::from_cols(
+                m.x_axis.truncate().truncate(),
+                m.y_axis.truncate().truncate(),
+                m.w_axis.truncate().truncate(),
+            ),
+            None => Affine2::IDENTITY,
+        };
+        // Mitsuba 0.6 files may still say `gamma` (their bump maps' 1.0): -1 or 2.2
+        // is sRGB, 1 is linear, as there.
+        let raw = match obj.float("gamma")? {
+            Some(g) if (g - 1.0).abs() < 1e-6 => true,
+            _ => raw,
+        };
+        let key = (path.clone(), raw);
+        let textures = &mut self.scene.textures;
+        let i = match self.images.get(&key) {
+            Some(&base) => {
+                let first = &textures[base as usize];
+                if first.filter == filter && first.wrap == wrap && first.to_uv == to_uv {
+                    base
+                } else {
+                    let mut t = first.clone();
+                    (t.filter, t.wrap, t.to_uv) = (filter, wrap, to_uv);
+                    textures.push(t);
+                    textures.len() as u32 - 1
+                }
+            }
+            None => {
+                let mut t = Texture::load(&path, raw)
+                    .map_err(|m| obj.err_param("filename", format!("= '{fname}': {m}")))?;
+                (t.filter, t.wrap, t.to_uv) = (filter, wrap, to_uv);
+                textures.push(t);
+                let i = textures.len() as u32 - 1;
+                self.images.insert(key, i);
+                i
+            }
+        };
+        let t = &self.scene.textures[i as usize];
+        Ok(TexVal {
+            mean: Some(t.mean),
+            image: Some(i),
+        })
     }
 }
