@@ -2,6 +2,8 @@
 //! and radiosity, and the perfect-mirror part, followed with reflection rays.
 //! Formulas follow Mitsuba 3 so that the same scene file gives the same picture.
 
+pub mod microfacet;
+
 use glam::Vec3;
 
 use crate::scene::{BsdfKind, Rgb};
