@@ -1,25 +1,14 @@
 //! Rough conductors (Mitsuba's `roughconductor`): the GGX and Beckmann microfacet
 //! distributions with Smith's shadowing, a conductor's Fresnel reflectance, and the
-//! lobe's evaluation and sampling, with Mitsuba 3's formulas. Directions are in the
-//! local frame of the shading normal (+z).
+//! lobe's evaluation and sampling, with Mitsuba 3's formulas (the types are the
+//! scene's: [`Microfacet`], [`Fresnel`], [`Glossy`]). Directions are in the local
+//! frame of the shading normal (+z).
 
 use std::f32::consts::PI;
 
 use glam::{Vec2, Vec3};
 
-use crate::scene::Rgb;
-
-/// A microfacet distribution of normals: GGX (Trowbridge-Reitz) or Beckmann, with
-/// roughness `alpha_u` along the local x axis and `alpha_v` along y.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Microfacet {
-    /// Roughness along x.
-    pub alpha_u: f32,
-    /// Roughness along y.
-    pub alpha_v: f32,
-    /// Beckmann instead of GGX.
-    pub beckmann: bool,
-}
+use crate::scene::{Fresnel, Glossy, Microfacet, Rgb};
 
 impl Microfacet {
     /// The density of normals `m` (unit, local frame) per unit projected area.
@@ -98,24 +87,6 @@ pub fn fresnel_conductor(cos_i: f32, eta: f32, k: f32) -> f32 {
     0.5 * (rs + rp)
 }
 
-/// How a conductor's reflectance depends on the angle.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Fresnel {
-    /// From its complex index per channel (`eta`, `k`).
-    Conductor {
-        /// Real part.
-        eta: Rgb,
-        /// Imaginary part.
-        k: Rgb,
-    },
-    /// Schlick's curve from the reflectance at normal incidence (a named material
-    /// radtrace knows only that of; 1 for Mitsuba's `none`).
-    Schlick {
-        /// Reflectance at normal incidence.
-        f0: Rgb,
-    },
-}
-
 impl Fresnel {
     /// The reflectance at cosine `cos_i` between the light and the microfacet.
     pub fn at(&self, cos_i: f32) -> Rgb {
@@ -134,17 +105,6 @@ impl Fresnel {
     pub fn f0(&self) -> Rgb {
         self.at(1.0)
     }
-}
-
-/// A rough conductor's lobe: `specular_reflectance` times the microfacet model.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Glossy {
-    /// The distribution of microfacet normals.
-    pub distribution: Microfacet,
-    /// The Fresnel term.
-    pub fresnel: Fresnel,
-    /// Mitsuba's `specular_reflectance` (a scale).
-    pub scale: Rgb,
 }
 
 impl Glossy {
@@ -232,7 +192,11 @@ mod tests {
                 alpha_v: av,
                 beckmann,
             };
-            assert!(near(md.d(m), d, 2e-3), "{beckmann} {au} {av}: D {} vs {d}", md.d(m));
+            assert!(
+                near(md.d(m), d, 2e-3),
+                "{beckmann} {au} {av}: D {} vs {d}",
+                md.d(m)
+            );
             assert!(near(md.g(wi, wo, m), g, 1e-4), "G {} vs {g}", md.g(wi, wo, m));
             assert!(near(md.g1(wi, m), g1, 1e-4), "G1 {} vs {g1}", md.g1(wi, m));
         }

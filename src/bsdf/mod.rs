@@ -6,7 +6,7 @@ pub mod microfacet;
 
 use glam::Vec3;
 
-use crate::scene::{BsdfKind, Rgb};
+use crate::scene::{BsdfKind, Glossy, Rgb};
 
 /// Unpolarised Fresnel reflectance of a smooth dielectric interface, for light
 /// arriving from outside at `cos_i > 0` with relative index `eta = n_in / n_out`.
@@ -42,7 +42,7 @@ impl BsdfKind {
     pub fn diffuse_brdf(&self, cos_l: f32, cos_v: f32) -> Rgb {
         match self {
             BsdfKind::Diffuse { reflectance } => *reflectance * std::f32::consts::FRAC_1_PI,
-            BsdfKind::Conductor { .. } => Vec3::ZERO,
+            BsdfKind::Conductor { .. } | BsdfKind::RoughConductor { .. } => Vec3::ZERO,
             BsdfKind::Plastic {
                 diffuse_reflectance,
                 eta,
@@ -69,7 +69,7 @@ impl BsdfKind {
     /// cosine `cos_v`.
     pub fn mirror(&self, cos_v: f32) -> Rgb {
         match self {
-            BsdfKind::Diffuse { .. } => Vec3::ZERO,
+            BsdfKind::Diffuse { .. } | BsdfKind::RoughConductor { .. } => Vec3::ZERO,
             BsdfKind::Conductor { specular_reflectance } => *specular_reflectance,
             BsdfKind::Plastic {
                 specular_reflectance,
@@ -86,7 +86,7 @@ impl BsdfKind {
     pub fn lambertian(&self) -> Option<Rgb> {
         match self {
             BsdfKind::Diffuse { reflectance } => Some(*reflectance * std::f32::consts::FRAC_1_PI),
-            BsdfKind::Conductor { .. } => Some(Vec3::ZERO),
+            BsdfKind::Conductor { .. } | BsdfKind::RoughConductor { .. } => Some(Vec3::ZERO),
             BsdfKind::Plastic { .. } => None,
             BsdfKind::Blend { weight, a, b } => {
                 Some(a.lambertian()? * (1.0 - weight) + b.lambertian()? * *weight)
@@ -99,7 +99,7 @@ impl BsdfKind {
     pub fn has_diffuse(&self) -> bool {
         match self {
             BsdfKind::Diffuse { reflectance } => reflectance.max_element() > 0.0,
-            BsdfKind::Conductor { .. } => false,
+            BsdfKind::Conductor { .. } | BsdfKind::RoughConductor { .. } => false,
             BsdfKind::Plastic {
                 diffuse_reflectance, ..
             } => diffuse_reflectance.max_element() > 0.0,
@@ -115,7 +115,7 @@ impl BsdfKind {
     pub fn diffuse_albedo(&self) -> Rgb {
         match self {
             BsdfKind::Diffuse { reflectance } => *reflectance,
-            BsdfKind::Conductor { .. } => Vec3::ZERO,
+            BsdfKind::Conductor { .. } | BsdfKind::RoughConductor { .. } => Vec3::ZERO,
             BsdfKind::Blend { weight, a, b } => {
                 a.diffuse_albedo() * (1.0 - weight) + b.diffuse_albedo() * *weight
             }
@@ -135,9 +135,37 @@ impl BsdfKind {
         }
     }
 
-    /// Whether the material has a mirror part.
+    /// Whether the material reflects light on like a mirror or a glossy metal (what
+    /// the lights' photons of pass 1 are aimed at).
     pub fn has_mirror(&self) -> bool {
-        self.mirror(1.0).max_element() > 0.0 || self.mirror(0.0).max_element() > 0.0
+        self.mirror(1.0).max_element() > 0.0
+            || self.mirror(0.0).max_element() > 0.0
+            || self.glossy().is_some()
+    }
+
+    /// The glossy lobe (a rough conductor's), scaled by its weight in a blend. Of a
+    /// blend of two glossy materials, the heavier one's alone.
+    pub fn glossy(&self) -> Option<Glossy> {
+        match self {
+            BsdfKind::RoughConductor { lobe } => Some(*lobe),
+            BsdfKind::Blend { weight, a, b } => {
+                let a = a.glossy().map(|g| (g, 1.0 - weight));
+                let b = b.glossy().map(|g| (g, *weight));
+                let (mut g, w) = match (a, b) {
+                    (Some(a), Some(b)) => {
+                        if a.1 >= b.1 {
+                            a
+                        } else {
+                            b
+                        }
+                    }
+                    (a, b) => a.or(b)?,
+                };
+                g.scale *= w;
+                (w > 0.0).then_some(g)
+            }
+            _ => None,
+        }
     }
 }
 

@@ -54,7 +54,7 @@ use crate::accel::Accel;
 use crate::geometry::Patch;
 use crate::mesh::RadiosityMesh;
 use crate::radiosity::{ListEntry, Solution, SolveSettings, SolveStats, SourceId};
-use crate::scene::{BsdfKind, Light, Rgb, Scene};
+use crate::scene::{BsdfKind, Fresnel, Light, Rgb, Scene};
 use crate::{Error, Result};
 
 /// The first bytes of every solution file.
@@ -156,6 +156,24 @@ impl Fingerprint {
                 self.vec3(*specular_reflectance);
                 self.f32(*eta);
                 self.bool(*nonlinear);
+            }
+            BsdfKind::RoughConductor { lobe } => {
+                self.u8(4);
+                self.f32(lobe.distribution.alpha_u);
+                self.f32(lobe.distribution.alpha_v);
+                self.bool(lobe.distribution.beckmann);
+                match lobe.fresnel {
+                    Fresnel::Conductor { eta, k } => {
+                        self.u8(0);
+                        self.vec3(eta);
+                        self.vec3(k);
+                    }
+                    Fresnel::Schlick { f0 } => {
+                        self.u8(1);
+                        self.vec3(f0);
+                    }
+                }
+                self.vec3(lobe.scale);
             }
             BsdfKind::Blend { weight, a, b } => {
                 self.u8(3);

@@ -311,6 +311,7 @@ fn solve_inner(
         general: vec![Vec3::ZERO; nv],
         caustic: Vec::new(),
         unshot: vec![Vec3::ZERO; nv],
+        shot: vec![Vec3::ZERO; nv],
         lists: vec![Vec::new(); mesh.patches.len()],
         folded: vec![BTreeSet::new(); mesh.patches.len()],
         kept: transfer::Kept::new(mesh.patches.len(), keep_bytes),
@@ -411,7 +412,11 @@ fn solve_inner(
         let levels = s.levels(|s, k| s.patch_points(best as u32, k));
         let first = s.mesh.patches[best].first_vertex as usize;
         let count = s.mesh.patches[best].vertex_count as usize;
-        for u in &mut s.unshot[first..first + count] {
+        for (u, shot) in s.unshot[first..first + count]
+            .iter_mut()
+            .zip(&mut s.shot[first..first + count])
+        {
+            *shot += *u;
             *u = Vec3::ZERO;
         }
         let rays = s.stats.rays;
@@ -458,6 +463,9 @@ struct Solver<'a> {
     /// See [`Solution::caustic`].
     caustic: Vec<Rgb>,
     unshot: Vec<Rgb>,
+    /// Per vertex, the radiosity its patch's shots sent (what the shot photons draw
+    /// from: the part of it that meets a mirror or glossy metal first).
+    shot: Vec<Rgb>,
     lists: Vec<Vec<ListEntry>>,
     /// Per patch, the sources already folded into its general radiosity: they may
     /// never enter its list again (one route per source).
@@ -634,6 +642,22 @@ impl Solver<'_> {
             0
         };
         let patch_photons = if emit.is_empty() { 0 } else { n };
+        // The patch shots' light that meets a mirror or a glossy metal first: the shots
+        // deliver only to the vertices that reflect diffusely, so photons from the
+        // shot radiosity carry that part on (those meeting a diffuse surface first
+        // are dropped: the shots hold it). As many as the specular share of the
+        // surface area asks: four times it, between a sixteenth and all of n.
+        let (shot_emit, shot_power) = if aim.light_pick.is_some() || photons::has_mirrors(self.scene) {
+            photons::Tracer::emitters(&self.mesh, &self.shot)
+        } else {
+            (Vec::new(), Vec::new())
+        };
+        let shot_photons = if shot_emit.is_empty() {
+            0
+        } else {
+            let share = photons::specular_area_share(self.scene);
+            (n as f64 * (4.0 * share).clamp(MIN_LIGHT_PHOTONS, 1.0)) as u64
+        };
         let slots = self.settings.sources_per_patch as usize;
         let mut general_b = vec![Vec3::ZERO; nv];
         let mut caustic_b: Vec<Rgb> = Vec::new();
@@ -648,6 +672,10 @@ impl Solver<'_> {
             patch_photons,
             emit,
             emit_pick: Alias::new(&emit_power),
+            shot: &self.shot,
+            shot_emit,
+            shot_pick: Alias::new(&shot_power),
+            shot_photons,
             light_photons,
             lights,
             aim,

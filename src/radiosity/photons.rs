@@ -24,7 +24,7 @@ use crate::emitters::{Emission, SampledLight};
 use crate::interaction::{offset_from, reflect, SurfacePoint};
 use crate::mesh::{point_in_polygon, Piece, RadiosityMesh};
 use crate::sampling::{cone_direction, cosine_direction, shot_seed, sphere_cone, uniform3, Alias};
-use crate::scene::{mean, Rgb, Scene};
+use crate::scene::{mean, Glossy, Rgb, Scene};
 use std::f32::consts::PI;
 
 use super::SourceId;
@@ -61,9 +61,15 @@ pub struct Tracer<'a> {
     /// Surface pieces with unshot light, drawn by their power.
     pub emit: Vec<Piece>,
     pub emit_pick: Option<Alias>,
-    /// Photons from patches, and from lights (only with mirrors in the scene).
+    /// The shot radiosity, and the pieces that hold it, drawn by their power.
+    pub shot: &'a [Rgb],
+    pub shot_emit: Vec<Piece>,
+    pub shot_pick: Option<Alias>,
+    /// Photons from patches, from lights and from the shots (the last two only with
+    /// mirrors in the scene).
     pub patch_photons: u64,
     pub light_photons: u64,
+    pub shot_photons: u64,
     /// The lights, prepared, and where their photons go.
     pub lights: Vec<SampledLight>,
     pub aim: Aim,
@@ -120,11 +126,18 @@ impl<'a> Tracer<'a> {
                 draw += 1;
                 uniform3(seed, draw)
             };
-            let (origin, normal, dir, power, source, from_light) = if i < self.patch_photons {
-                let Some(table) = &self.emit_pick else { continue };
+            let patch = i < self.patch_photons;
+            let light = !patch && i < self.patch_photons + self.light_photons;
+            let (origin, normal, dir, power, source, start) = if !light {
+                let (table, pieces, field, count) = if patch {
+                    (&self.emit_pick, &self.emit, self.unshot, self.patch_photons)
+                } else {
+                    (&self.shot_pick, &self.shot_emit, self.shot, self.shot_photons)
+                };
+                let Some(table) = table else { continue };
                 let [a, b, cc] = next();
                 let k = table.pick(a, b, cc);
-                let e = &self.emit[k];
+                let e = &pieces[k];
                 let [b, cc, _] = next();
                 let x = point_in_polygon(&e.corners, Vec2::new(b, cc));
                 let n = (e.corners[1] - e.corners[0]).cross(e.corners[2] - e.corners[0]);
@@ -135,9 +148,9 @@ impl<'a> Tracer<'a> {
                 let (x_out, n_out) = self.mesh.surface_at(e, x).unwrap_or((x, n));
                 let prob = table.probability(k);
                 let w = self.mesh.weights_on(e, x);
-                let b_unshot = w.apply(self.unshot);
+                let b = w.apply(field);
                 // Radiosity B over area A sends B A; per photon over its probability.
-                let power = b_unshot * (area / (prob as f32 * self.patch_photons as f32));
+                let power = b * (area / (prob as f32 * count as f32));
                 let [u, v, _] = next();
                 (
                     x_out,
@@ -145,7 +158,7 @@ impl<'a> Tracer<'a> {
                     cosine_direction(n_out, Vec2::new(u, v)),
                     power,
                     Some(SourceId::Patch(e.patch)),
-                    false,
+                    if patch { Start::Patch } else { Start::Shot },
                 )
             } else {
                 let Some((e, prob)) = self.aim.emit(&self.lights, &mut next) else {
@@ -158,14 +171,14 @@ impl<'a> Tracer<'a> {
                     e.dir,
                     e.power / count,
                     None,
-                    true,
+                    Start::Light,
                 )
             };
             if !(power.max_element() > 0.0) {
                 continue;
             }
             self.trace(
-                origin, normal, dir, power, source, from_light, &mut next, &mut out, &mut rays,
+                origin, normal, dir, power, source, start, &mut next, &mut out, &mut rays,
             );
         }
         (out, rays)
@@ -179,14 +192,16 @@ impl<'a> Tracer<'a> {
         mut dir: Vec3,
         mut power: Rgb,
         mut source: Option<SourceId>,
-        from_light: bool,
+        start: Start,
         next: &mut impl FnMut() -> [f32; 3],
         out: &mut Vec<Deposit>,
         rays: &mut u64,
     ) {
-        let mut first = from_light;
+        // Light the deterministic shots delivered: only mirrors and glossy metals pass
+        // it on.
+        let mut first = start != Start::Patch;
         // Still on a light -> mirror(s) path.
-        let mut caustic = from_light;
+        let mut caustic = start == Start::Light;
         for _ in 0..MAX_BOUNCES {
             let ray = Ray {
                 origin: if normal == Vec3::ZERO {
@@ -210,20 +225,33 @@ impl<'a> Tracer<'a> {
             let rho = bsdf.kind.diffuse_albedo();
             let cos = (-dir).dot(sp.ns).max(0.0);
             let spec = bsdf.kind.mirror(cos);
+            let glossy = bsdf.kind.glossy();
+            // A glossy lobe passes a photon on with the probability of its reflectance
+            // at normal incidence, then weighs it by the lobe's sampling weight over
+            // that (the lobe reflects at most that fraction, nearly, at any angle).
+            let pg = glossy.map_or(0.0, |g| mean(g.scale * g.fresnel.f0()).clamp(0.0, 1.0));
             if first {
-                // Straight from a light: the deterministic shots hold that; only the
-                // mirrors pass it on.
+                // Straight from a light or a shot: the deterministic shots hold that;
+                // only the mirrors and glossy metals pass it on.
                 first = false;
                 let ps = mean(spec).min(1.0);
-                let [u, _, _] = next();
-                if !(ps > 0.0) || u >= ps {
+                let [u, a, b] = next();
+                if u < ps {
+                    dir = reflect(dir, sp.ns);
+                    if !reflects(dir, sp.ng) {
+                        return;
+                    }
+                    power *= spec / ps;
+                } else if u < ps + pg {
+                    let Some((d, w)) = glossy.and_then(|g| glossy_bounce(&g, &sp, dir, Vec2::new(a, b)))
+                    else {
+                        return;
+                    };
+                    dir = d;
+                    power *= w / pg;
+                } else {
                     return;
                 }
-                dir = reflect(dir, sp.ns);
-                if !reflects(dir, sp.ng) {
-                    return;
-                }
-                power *= spec / ps;
                 origin = sp.p;
                 normal = sp.ng;
                 source = None;
@@ -268,6 +296,13 @@ impl<'a> Tracer<'a> {
                     return;
                 }
                 source = None;
+            } else if u < pd + ps + pg {
+                let Some((d, w)) = glossy.and_then(|g| glossy_bounce(&g, &sp, dir, Vec2::new(a, b))) else {
+                    return;
+                };
+                dir = d;
+                power *= w / pg;
+                source = None;
             } else {
                 return;
             }
@@ -278,7 +313,7 @@ impl<'a> Tracer<'a> {
 
     /// Photons in all.
     pub fn total(&self) -> u64 {
-        self.patch_photons + self.light_photons
+        self.patch_photons + self.light_photons + self.shot_photons
     }
 
     /// Number of chunks.
@@ -572,6 +607,51 @@ fn mirror_spheres(scene: &Scene) -> Vec<(Vec3, f32)> {
 /// the surface into a closed object (the renderer drops such reflections too).
 fn reflects(dir: Vec3, ng: Vec3) -> bool {
     dir.dot(ng) > 0.0
+}
+
+/// Where a photon starts: the unshot light of a patch, a light (aimed at the
+/// mirrors), or the light a patch's shots sent (see [`Tracer::shot`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Start {
+    Patch,
+    Light,
+    Shot,
+}
+
+/// The share of the scene's surface area that reflects like a mirror or a glossy
+/// metal.
+pub fn specular_area_share(scene: &Scene) -> f64 {
+    let (mut all, mut spec) = (0.0f64, 0.0f64);
+    for shape in &scene.shapes {
+        let m = &shape.mesh;
+        let a: f64 = (0..m.triangle_count())
+            .map(|t| {
+                let [p, q, r] = m.triangle(t);
+                f64::from(0.5 * (q - p).cross(r - p).length())
+            })
+            .sum();
+        all += a;
+        if scene.bsdfs[shape.bsdf as usize].kind.has_mirror() {
+            spec += a;
+        }
+    }
+    if all > 0.0 {
+        spec / all
+    } else {
+        0.0
+    }
+}
+
+/// A photon arriving along `dir` at `sp` reflected by a glossy lobe drawn from `u`:
+/// its new direction and the lobe's weight (`eval * cos / pdf`); `None` if it leaves
+/// below the surface.
+fn glossy_bounce(lobe: &Glossy, sp: &SurfacePoint, dir: Vec3, u: Vec2) -> Option<(Vec3, Rgb)> {
+    let (t, b) = sp.ns.any_orthonormal_pair();
+    let wo = -dir;
+    let wo_l = Vec3::new(wo.dot(t), wo.dot(b), wo.dot(sp.ns));
+    let (wi_l, w) = lobe.sample(wo_l, u)?;
+    let wi = t * wi_l.x + b * wi_l.y + sp.ns * wi_l.z;
+    reflects(wi, sp.ng).then_some((wi, w))
 }
 
 /// Whether any surface of the scene reflects like a mirror.

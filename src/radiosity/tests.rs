@@ -868,3 +868,48 @@ fn patch_shots_give_way_to_photons_where_they_cost_far_more_rays() {
     assert!(c.stats.patch_shots > 0, "{:?}", c.stats);
     assert!(c.stats.residual <= PHOTON_SHARE, "{:?}", c.stats);
 }
+
+/// A glossy metal floor in pass 1 (white furnace of its lobe): the lit box with its
+/// floor a rough conductor of Fresnel 1 and GGX roughness 0.05, which keeps no
+/// radiosity and passes on all it receives but the few per cent single scattering
+/// loses. The light its lights' photons and the walls' photons bring there is
+/// reflected by the lobe, not lost: the walls absorb what the light emits, less the
+/// lobe's loss; with the floor black instead they absorb far less.
+#[test]
+fn a_glossy_floor_passes_its_light_on_in_pass_1() {
+    use crate::scene::{BsdfKind, Fresnel, Glossy, Microfacet};
+    let rho = 0.6;
+    let mut s = lit_box(rho);
+    let floor = s
+        .shapes
+        .iter()
+        .position(|sh| sh.mesh.positions.iter().all(|p| p.y == 0.0))
+        .unwrap();
+    let b = s.shapes[floor].bsdf as usize;
+    let lobe = Glossy {
+        distribution: Microfacet {
+            alpha_u: 0.05,
+            alpha_v: 0.05,
+            beckmann: false,
+        },
+        fresnel: Fresnel::Schlick { f0: Vec3::ONE },
+        scale: Vec3::ONE,
+    };
+    s.bsdfs[b].kind = BsdfKind::RoughConductor { lobe };
+    let bvh = Bvh::build(&s);
+    let mut st = settings(0.1, 16, 20);
+    st.tolerance = 0.02;
+    st.photons = 64;
+    let a = solve(&s, &bvh, &st, &Silent).unwrap();
+    let emitted = a.stats.emitted_power;
+    let absorbed = absorbed_power(&a, rho);
+    assert!(
+        absorbed < emitted * 1.02 && absorbed > emitted * 0.95,
+        "{absorbed} vs {emitted}"
+    );
+    s.bsdfs[b].kind = BsdfKind::Diffuse {
+        reflectance: Vec3::ZERO,
+    };
+    let black = solve(&s, &Bvh::build(&s), &st, &Silent).unwrap();
+    assert!(absorbed_power(&black, rho) < 0.8 * emitted);
+}

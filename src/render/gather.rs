@@ -522,12 +522,25 @@ impl Gather {
                 }
             }
             let mirror = bsdf.kind.mirror((-ray.dir).dot(y.ns));
-            let dir = reflect(ray.dir, y.ns).normalize();
-            if mirror.max_element() <= 0.0 || dir.dot(y.ng) <= 0.0 {
+            let (dir, weight) = match bsdf.kind.glossy() {
+                // A glossy metal: on along one direction drawn from its lobe.
+                Some(lobe) if mirror.max_element() <= 0.0 => {
+                    let (t, b) = y.ns.any_orthonormal_pair();
+                    let wo = -ray.dir;
+                    let wo_l = Vec3::new(wo.dot(t), wo.dot(b), wo.dot(y.ns));
+                    let u = uniform2(derive(derive(seed, Stream::Sample(k)), Stream::Reflection) ^ bounce);
+                    match lobe.sample(wo_l, u) {
+                        Some((wi, w)) => (t * wi.x + b * wi.y + y.ns * wi.z, w),
+                        None => break,
+                    }
+                }
+                _ => (reflect(ray.dir, y.ns).normalize(), mirror),
+            };
+            if weight.max_element() <= 0.0 || dir.dot(y.ng) <= 0.0 {
                 break;
             }
             counters.gather_rays += 1;
-            through *= mirror;
+            through *= weight;
             ray = y.spawn(dir, f32::INFINITY);
         }
         (e, dist)

@@ -10,8 +10,8 @@ use crate::accel::{Accel, Ray};
 use crate::emitters::{group_point, SampledLight};
 use crate::interaction::{reflect, SurfacePoint};
 use crate::mesh::RadiosityMesh;
-use crate::sampling::{derive, Stream};
-use crate::scene::{Bsdf, BsdfKind, Rgb, Scene};
+use crate::sampling::{derive, stratum, Stream};
+use crate::scene::{Bsdf, BsdfKind, Glossy, Rgb, Scene};
 use crate::selection::{Pick, Selection};
 
 /// Where the light of diffuse surfaces comes from.
@@ -40,6 +40,9 @@ pub struct Tracer<'a> {
     diffuse: Diffuse<'a>,
     /// The final gather at first diffuse hits (`--gather`), if on.
     gather: Option<Gather>,
+    /// Per mesh vertex, the solution's total radiosity (what rays drawn from a glossy
+    /// lobe read where they land), with a solution.
+    total: Option<Vec<Rgb>>,
 }
 
 impl<'a> Tracer<'a> {
@@ -64,6 +67,7 @@ impl<'a> Tracer<'a> {
             max_depth: settings.max_depth,
             diffuse: Diffuse::Direct(picks),
             gather: None,
+            total: None,
         }
     }
 
@@ -86,6 +90,11 @@ impl<'a> Tracer<'a> {
                 selection,
             },
             gather: None,
+            total: scene
+                .bsdfs
+                .iter()
+                .any(|b| b.kind.glossy().is_some())
+                .then(|| selection.solution.total()),
         }
     }
 
@@ -107,14 +116,14 @@ impl<'a> Tracer<'a> {
     /// Radiance arriving along `ray` (towards its origin). `depth` counts mirror
     /// reflections so far; `seed` decorrelates the light samples of this path.
     pub fn radiance(&self, ray: &Ray, depth: u32, seed: u32, counters: &mut Counters) -> Rgb {
-        self.trace(ray, depth, seed, counters, None)
+        self.trace(ray, depth, seed, counters, None, true)
     }
 
     /// Radiance along a primary ray whose first diffuse hit decides its shadow rays
     /// with the shadow image buffer `sib` (and fills its record); deeper diffuse hits
     /// (seen in mirrors) cast all their rays (paper Sect. 7).
     pub fn radiance_sib(&self, ray: &Ray, seed: u32, counters: &mut Counters, sib: &mut SibQuery) -> Rgb {
-        self.trace(ray, 0, seed, counters, Some(sib))
+        self.trace(ray, 0, seed, counters, Some(sib), true)
     }
 
     fn trace(
@@ -124,6 +133,7 @@ impl<'a> Tracer<'a> {
         seed: u32,
         counters: &mut Counters,
         mut sib: Option<&mut SibQuery>,
+        emit: bool,
     ) -> Rgb {
         let Some(hit) = self.accel.intersect(ray) else {
             return Vec3::ZERO;
@@ -134,7 +144,7 @@ impl<'a> Tracer<'a> {
         let sp = SurfacePoint::new(self.scene, ray, &hit);
         let shape = &self.scene.shapes[hit.shape as usize];
         let mut l = Vec3::ZERO;
-        if sp.front {
+        if sp.front && emit {
             if let Some(e) = shape.emitter {
                 if let crate::scene::Light::Area { radiance, .. } = self.scene.lights[e as usize] {
                     l += radiance;
@@ -220,14 +230,128 @@ impl<'a> Tracer<'a> {
             };
         }
         if depth < self.max_depth {
+            if let Some(lobe) = kind.glossy() {
+                l += self.glossy(&lobe, &sp, wo, depth, seed, counters);
+            }
             let m = kind.mirror(cos_v);
             if m.max_element() > 0.0 {
                 let dir = reflect(ray.dir, sp.ns).normalize();
                 if dir.dot(sp.ng) > 0.0 {
                     counters.reflection_rays += 1;
                     let refl = sp.spawn(dir, f32::INFINITY);
-                    l += m * self.trace(&refl, depth + 1, derive(seed, Stream::Reflection), counters, None);
+                    l += m * self.trace(
+                        &refl,
+                        depth + 1,
+                        derive(seed, Stream::Reflection),
+                        counters,
+                        None,
+                        true,
+                    );
                 }
+            }
+        }
+        l
+    }
+
+    /// What a glossy lobe at `sp` reflects towards `wo`: the lights by light
+    /// sampling (a point or spot light one shadow ray, an area light `area_samples`
+    /// at a primary hit and one deeper), and the rest by rays drawn from the lobe
+    /// ([`GLOSSY_RAYS`] at a primary hit, one deeper), each reading what it meets
+    /// ([`Self::reflected`]: the solution's light, further mirrors and lobes, but no
+    /// emitter's radiance, which the light samples bring). Every light arrives by one
+    /// route.
+    fn glossy(
+        &self,
+        lobe: &Glossy,
+        sp: &SurfacePoint,
+        wo: Vec3,
+        depth: u32,
+        seed: u32,
+        counters: &mut Counters,
+    ) -> Rgb {
+        let (t, b) = sp.ns.any_orthonormal_pair();
+        let local = |d: Vec3| Vec3::new(d.dot(t), d.dot(b), d.dot(sp.ns));
+        let wo_l = local(wo);
+        let n = if depth == 0 { GLOSSY_RAYS } else { 1 };
+        let seed = derive(seed, Stream::Reflection);
+        let mut sum = Vec3::ZERO;
+        for k in 0..n {
+            let Some((wi_l, w)) = lobe.sample(wo_l, stratum(seed, 0, k, n)) else {
+                continue;
+            };
+            let wi = t * wi_l.x + b * wi_l.y + sp.ns * wi_l.z;
+            if wi.dot(sp.ng) <= 0.0 {
+                continue;
+            }
+            counters.reflection_rays += 1;
+            let ray = sp.spawn(wi, f32::INFINITY);
+            sum += w * self.reflected(&ray, depth + 1, derive(seed, Stream::Sample(k)), counters);
+        }
+        let mut l = sum / n as f32;
+        for (i, light) in self.sources[..self.scene.lights.len()].iter().enumerate() {
+            let r = match (light.is_area(), depth) {
+                (false, _) | (true, 1..) => 1,
+                (true, 0) => self.area_samples,
+            };
+            let light_seed = derive(seed, Stream::Light(i as u32));
+            let mut cast = 0;
+            for g in 0..r {
+                let (_, _, uv) = group_point(g, r, r, light_seed);
+                let Some(s) = light.sample(sp.p, uv) else { continue };
+                if sp.ns.dot(s.dir) <= 0.0 || sp.ng.dot(s.dir) <= 0.0 {
+                    continue;
+                }
+                let f = lobe.eval(local(s.dir), wo_l);
+                if f.max_element() <= 0.0 {
+                    continue;
+                }
+                cast += 1;
+                if !self.accel.occluded(&sp.shadow_ray(s.point, s.normal)) {
+                    l += f * s.value * (sp.ns.dot(s.dir) / r as f32);
+                }
+            }
+            counters.count_source(i, cast, 0);
+        }
+        l
+    }
+
+    /// Radiance along a ray drawn from a glossy lobe, without emitters' radiance:
+    /// with a solution, the total radiosity where it lands (scaled by a texture
+    /// there), and mirrors and lobes followed; without one, the full shading.
+    fn reflected(&self, ray: &Ray, depth: u32, seed: u32, counters: &mut Counters) -> Rgb {
+        let (Diffuse::Selected { mesh, .. }, Some(total)) = (&self.diffuse, &self.total) else {
+            return self.trace(ray, depth, seed, counters, None, false);
+        };
+        let Some(hit) = self.accel.intersect(ray) else {
+            return Vec3::ZERO;
+        };
+        let sp = SurfacePoint::new(self.scene, ray, &hit);
+        let bsdf = &self.scene.bsdfs[self.scene.shapes[hit.shape as usize].bsdf as usize];
+        let wo = -ray.dir;
+        let cos_v = sp.ns.dot(wo);
+        if (!sp.front && !bsdf.twosided) || cos_v <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let kind = match bsdf.textures.is_empty() {
+            true => std::borrow::Cow::Borrowed(&bsdf.kind),
+            false => bsdf.kind_at(sp.uv(self.scene), &self.scene.textures),
+        };
+        let mut l = Vec3::ZERO;
+        if kind.has_diffuse() {
+            let interp = mesh.locate(self.scene, &hit, sp.p, sp.front);
+            let textured = texture_ratio(kind.diffuse_albedo(), bsdf.kind.diffuse_albedo());
+            l += interp.apply(total) * textured * std::f32::consts::FRAC_1_PI;
+        }
+        if depth < self.max_depth {
+            if let Some(lobe) = kind.glossy() {
+                l += self.glossy(&lobe, &sp, wo, depth, seed, counters);
+            }
+            let m = kind.mirror(cos_v);
+            let dir = reflect(ray.dir, sp.ns).normalize();
+            if m.max_element() > 0.0 && dir.dot(sp.ng) > 0.0 {
+                counters.reflection_rays += 1;
+                let refl = sp.spawn(dir, f32::INFINITY);
+                l += m * self.reflected(&refl, depth + 1, derive(seed, Stream::Reflection), counters);
             }
         }
         l
@@ -334,6 +458,9 @@ struct Shade<'s> {
     seed: u32,
 }
 
+/// Rays drawn from a glossy lobe at a primary hit (one at deeper hits).
+pub const GLOSSY_RAYS: u32 = 8;
+
 /// Per channel, a texture's value over the mean the solution was computed with (1
 /// where the mean is 0: nothing was stored there to scale).
 fn texture_ratio(here: Rgb, mean: Rgb) -> Rgb {
@@ -430,6 +557,48 @@ mod tests {
         let mut c = Counters::default();
         let ray = Ray::new(Vec3::new(x, 0.0, 0.5), -Vec3::Z);
         (tracer.radiance(&ray, 0, 1, &mut c), c)
+    }
+
+    /// A rough conductor floor under a point light, nothing else: the radiance seen
+    /// straight down is the lobe's BRDF times I / r^2 times the cosine (Mitsuba's
+    /// roughconductor, closed form), by one shadow ray; with the light beside a
+    /// blocker, none. The drawn rays meet nothing, so bring nothing.
+    #[test]
+    fn a_glossy_floor_reflects_a_point_light_by_its_lobe() {
+        use crate::scene::{Fresnel, Glossy, Microfacet};
+        let lobe = Glossy {
+            distribution: Microfacet {
+                alpha_u: 0.3,
+                alpha_v: 0.3,
+                beckmann: false,
+            },
+            fresnel: Fresnel::Conductor {
+                eta: Vec3::new(1.66, 0.88, 0.52),
+                k: Vec3::new(9.2, 6.3, 4.8),
+            },
+            scale: Vec3::splat(0.9),
+        };
+        let (h, i) = (2.0f32, 10.0f32);
+        let s = scene(
+            vec![(square(10.0, 0.0, false), BsdfKind::RoughConductor { lobe })],
+            vec![Light::Point {
+                position: Vec3::new(0.0, 0.0, h),
+                intensity: Vec3::splat(i),
+            }],
+        );
+        for x in [0.0f32, 0.5, 1.5] {
+            let (l, c) = look_down(&s, x, 1);
+            let r2 = h * h + x * x;
+            let wi = Vec3::new(-x, 0.0, h) / r2.sqrt();
+            let expect = lobe.eval(wi, Vec3::Z) * (i / r2 * wi.z);
+            assert!(
+                (l - expect).abs().max_element() < 1e-4 * expect.max_element(),
+                "x {x}: {l} vs {expect}"
+            );
+            assert!(expect.max_element() > 0.01);
+            assert_eq!(c.shadow_rays, 1);
+            assert_eq!(c.reflection_rays, u64::from(GLOSSY_RAYS));
+        }
     }
 
     #[test]

@@ -48,6 +48,11 @@ pub enum BsdfKind {
         /// Mitsuba's `nonlinear` flag (internal scattering darkens colours).
         nonlinear: bool,
     },
+    /// A rough conductor (`roughconductor`): a glossy lobe of microfacets.
+    RoughConductor {
+        /// The lobe.
+        lobe: Glossy,
+    },
     /// `(1 - weight) * a + weight * b` (`blendbsdf`).
     Blend {
         /// Weight of `b`.
@@ -57,6 +62,47 @@ pub enum BsdfKind {
         /// Second BSDF.
         b: Box<BsdfKind>,
     },
+}
+
+/// A microfacet distribution of normals: GGX (Trowbridge-Reitz) or Beckmann, with
+/// roughness `alpha_u` along the local x axis and `alpha_v` along y.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Microfacet {
+    /// Roughness along x.
+    pub alpha_u: f32,
+    /// Roughness along y.
+    pub alpha_v: f32,
+    /// Beckmann instead of GGX.
+    pub beckmann: bool,
+}
+
+/// How a conductor's reflectance depends on the angle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Fresnel {
+    /// From its complex index per channel (`eta`, `k`).
+    Conductor {
+        /// Real part.
+        eta: Rgb,
+        /// Imaginary part.
+        k: Rgb,
+    },
+    /// Schlick's curve from the reflectance at normal incidence (a named material
+    /// radtrace knows only that of; 1 for Mitsuba's `none`).
+    Schlick {
+        /// Reflectance at normal incidence.
+        f0: Rgb,
+    },
+}
+
+/// A rough conductor's lobe: `specular_reflectance` times the microfacet model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Glossy {
+    /// The distribution of microfacet normals.
+    pub distribution: Microfacet,
+    /// The Fresnel term.
+    pub fresnel: Fresnel,
+    /// Mitsuba's `specular_reflectance` (a scale).
+    pub scale: Rgb,
 }
 
 /// A material as used by shapes.
@@ -136,6 +182,7 @@ impl Bsdf {
                     },
                     TexField::Specular,
                 ) => *specular_reflectance = value.max(Vec3::ZERO),
+                (BsdfKind::RoughConductor { lobe }, TexField::Specular) => lobe.scale = value.max(Vec3::ZERO),
                 (BsdfKind::Blend { weight, .. }, TexField::Weight) => *weight = value.x.clamp(0.0, 1.0),
                 _ => {}
             }

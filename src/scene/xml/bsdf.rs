@@ -8,7 +8,7 @@ use roxmltree::Node;
 use super::document::{tag, Loader, Src};
 use super::parse;
 use super::properties::{Child, Obj, Target, Val};
-use crate::scene::{Bsdf, BsdfKind, TexField, TexSlot};
+use crate::scene::{Bsdf, BsdfKind, Fresnel, Glossy, Microfacet, TexField, TexSlot};
 use crate::Result;
 
 impl Loader {
@@ -40,13 +40,12 @@ impl Loader {
                 slot("reflectance", TexField::Diffuse, Vec3::ONE);
                 (BsdfKind::Diffuse { reflectance }, false)
             }
-            "conductor" | "roughconductor" => {
-                if ty == "roughconductor" {
-                    self.rough(s, c, &ty, "conductor");
-                    for p in ["alpha", "alpha_u", "alpha_v", "distribution", "sample_visible"] {
-                        obj.get(p);
-                    }
-                }
+            "roughconductor" => {
+                let lobe = self.rough_conductor(s, c, &obj)?;
+                slot("specular_reflectance", TexField::Specular, Vec3::ONE);
+                (BsdfKind::RoughConductor { lobe }, false)
+            }
+            "conductor" => {
                 let (kind, f0) = self.conductor(s, c, &obj)?;
                 slot("specular_reflectance", TexField::Specular, f0);
                 (kind, false)
@@ -188,13 +187,109 @@ impl Loader {
         );
     }
 
+    /// A rough conductor's lobe (Mitsuba 3's `roughconductor`: `distribution`
+    /// `beckmann` (the default) or `ggx`, `alpha` or `alpha_u`/`alpha_v` (0.1), the
+    /// Fresnel term from `eta`/`k` or a named `material`, `specular_reflectance`;
+    /// Mitsuba 0.6's `ext_eta` divides both).
+    fn rough_conductor(&mut self, s: Src, c: Node, obj: &Obj) -> Result<Glossy> {
+        let beckmann = match obj.string("distribution")?.as_deref().unwrap_or("beckmann") {
+            "beckmann" => true,
+            "ggx" => false,
+            d => return Err(obj.err_param("distribution", format!("= '{d}' is not 'beckmann' or 'ggx'"))),
+        };
+        obj.get("sample_visible");
+        let rough = |name: &str| -> Result<Option<f32>> {
+            match obj.scalar(name)? {
+                Some(a) if !(a.is_finite() && a > 0.0) => {
+                    Err(obj.err_param(name, format!("= {a} must be a positive roughness")))
+                }
+                // As Mitsuba, no less than 1e-4 (a smooth conductor is `conductor`).
+                a => Ok(a.map(|a| a.max(1e-4))),
+            }
+        };
+        let (alpha_u, alpha_v) = match rough("alpha")? {
+            Some(a) => (a, a),
+            None => (rough("alpha_u")?.unwrap_or(0.1), rough("alpha_v")?.unwrap_or(0.1)),
+        };
+        if alpha_u != alpha_v {
+            self.warn(
+                s,
+                c,
+                "anisotropic roughness: radtrace has no surface tangents, so the lobe's \
+                 axes are oriented arbitrarily about the normal",
+            );
+        }
+        let scale = obj.reflectance("specular_reflectance", 1.0)?;
+        let ext = match obj.scalar("ext_eta")? {
+            Some(e) if e > 0.0 => e,
+            Some(e) => return Err(obj.err_param("ext_eta", format!("= {e} must be positive"))),
+            None => 1.0,
+        };
+        let material = obj.string("material")?;
+        let fresnel = if obj.get("eta").is_some() || obj.get("k").is_some() {
+            if material.as_deref().is_some_and(|m| m != "none") {
+                return Err(s.err(
+                    c,
+                    "bsdf 'roughconductor': give either 'material' or 'eta'/'k', not both",
+                ));
+            }
+            Fresnel::Conductor {
+                eta: obj.nonnegative("eta", 0.0)? / ext,
+                k: obj.nonnegative("k", 1.0)? / ext,
+            }
+        } else {
+            match material.as_deref().unwrap_or("none") {
+                "none" => Fresnel::Schlick { f0: Vec3::ONE },
+                m => match parse::conductor_f0(m) {
+                    Some(f0) => {
+                        self.warn(
+                            s,
+                            c,
+                            format!(
+                                "conductor material '{m}': its Fresnel term follows Schlick's \
+                                 curve from its reflectance at normal incidence {f0}"
+                            ),
+                        );
+                        Fresnel::Schlick { f0 }
+                    }
+                    None => {
+                        self.warn(
+                            s,
+                            c,
+                            format!(
+                                "conductor material '{m}' is not known to radtrace: rendered \
+                                 with reflectance 1"
+                            ),
+                        );
+                        Fresnel::Schlick { f0: Vec3::ONE }
+                    }
+                },
+            }
+        };
+        Ok(Glossy {
+            distribution: Microfacet {
+                alpha_u,
+                alpha_v,
+                beckmann,
+            },
+            fresnel,
+            scale,
+        })
+    }
+
     /// A conductor as a mirror of constant reflectance, and its reflectance at normal
     /// incidence (which multiplies `specular_reflectance`).
     fn conductor(&mut self, s: Src, c: Node, obj: &Obj) -> Result<(BsdfKind, Vec3)> {
         let scale = obj.reflectance("specular_reflectance", 1.0)?;
         let material = obj.string("material")?;
-        let eta = obj.scalar("eta")?;
-        let k = obj.scalar("k")?;
+        // Mitsuba 0.6's exterior index divides both.
+        let ext = match obj.scalar("ext_eta")? {
+            Some(e) if e > 0.0 => e,
+            Some(e) => return Err(obj.err_param("ext_eta", format!("= {e} must be positive"))),
+            None => 1.0,
+        };
+        let eta = obj.scalar("eta")?.map(|e| e / ext);
+        let k = obj.scalar("k")?.map(|k| k / ext);
         let f0 = if eta.is_some() || k.is_some() {
             if material.as_deref().is_some_and(|m| m != "none") {
                 return Err(s.err(

@@ -38,6 +38,15 @@ impl<'a, 'i> Obj<'a, 'i> {
         Ok(c)
     }
 
+    /// A colour with no negative channel (an index of refraction, an absorption).
+    pub(super) fn nonnegative(&self, name: &str, default: f32) -> Result<Rgb> {
+        let c = self.color(name, default)?;
+        if c.min_element() < 0.0 {
+            return Err(self.err_param(name, format!("is negative ({c})")));
+        }
+        Ok(c)
+    }
+
     /// A radiance or intensity: a colour with no negative channel.
     pub(super) fn emission(&self, name: &str) -> Result<Rgb> {
         let c = self.color(name, 1.0)?;
