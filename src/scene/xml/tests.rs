@@ -1242,3 +1242,46 @@ fn bad_textures_are_errors_naming_file_and_line() {
         assert!(e.contains(want), "{e}");
     }
 }
+
+/// A rough conductor's bad parameters: one error naming the file, the line and the
+/// parameter; anisotropic roughness is a warning (no tangents to follow).
+#[test]
+fn bad_rough_conductors_are_errors_naming_the_parameter() {
+    for (param, want) in [
+        (
+            r#"<float name="alpha" value="-0.1"/>"#,
+            "'alpha' = -0.1 must be a positive roughness",
+        ),
+        (
+            r#"<string name="distribution" value="phong"/>"#,
+            "'phong' is not 'beckmann' or 'ggx'",
+        ),
+        (r#"<rgb name="eta" value="-1, 1, 1"/>"#, "'eta' is negative"),
+        (
+            r#"<string name="material" value="Au"/><float name="eta" value="1.5"/>"#,
+            "either 'material' or 'eta'/'k'",
+        ),
+    ] {
+        let xml = scene(&[
+            r#"<shape type="cube">"#,
+            r#"<bsdf type="roughconductor">"#,
+            param,
+            "</bsdf></shape>",
+        ]);
+        let m = match load_raw(&xml, &[]) {
+            Ok(_) => panic!("{param}: accepted"),
+            Err(e) => e.to_string(),
+        };
+        assert!(m.contains("scene.xml:"), "{m}");
+        assert!(m.contains(want), "{param}: {m}");
+    }
+    let l = ok(&[
+        r#"<shape type="cube"><bsdf type="roughconductor"><float name="alpha_u" value="0.1"/>"#,
+        r#"<float name="alpha_v" value="0.3"/></bsdf></shape>"#,
+    ]);
+    assert!(
+        l.warnings.iter().any(|w| w.contains("anisotropic")),
+        "{:?}",
+        l.warnings
+    );
+}
