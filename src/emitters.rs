@@ -178,6 +178,14 @@ impl SampledLight {
     }
 
     /// Whether this is an area (surface) source.
+    /// An area light's area (its light points are drawn uniformly over it).
+    pub fn area(&self) -> Option<f32> {
+        match self {
+            SampledLight::Area(e) => Some(e.area),
+            _ => None,
+        }
+    }
+
     pub fn is_area(&self) -> bool {
         matches!(self, SampledLight::Area(_))
     }

@@ -254,14 +254,16 @@ impl<'a> Tracer<'a> {
     }
 
     /// What a glossy lobe at `sp` reflects towards `wo`: the lights by light
-    /// sampling (a point or spot light one shadow ray, an area light `area_samples`
-    /// at a primary hit and one deeper), and the rest by rays drawn from the lobe
-    /// ([`GLOSSY_RAYS`] at a primary hit, one at the next, none from
-    /// [`GLOSSY_DEPTH`] on: classroom 27.1 -> 19.8 s, FLIP against Mitsuba 0.153 ->
-    /// 0.157, within its 256-spp reference's noise), each reading what it meets
-    /// ([`Self::reflected`]: the solution's light, further mirrors and lobes, but no
-    /// emitter's radiance, which the light samples bring). Every light arrives by one
-    /// route.
+    /// sampling (a point or spot light one shadow ray, an area light
+    /// [`GLOSSY_LIGHT_SAMPLES`] at a primary hit and one deeper), and the rest by rays
+    /// drawn from the lobe ([`GLOSSY_RAYS`] at a primary hit, one at the next, none
+    /// from [`GLOSSY_DEPTH`] on: classroom 27.1 -> 19.8 s, FLIP against Mitsuba 0.153
+    /// -> 0.157, within its 256-spp reference's noise), each reading what it meets
+    /// ([`Self::reflected`]: the solution's light, further mirrors and lobes). An area
+    /// light the lobe's rays meet counts too: its light samples and those rays are
+    /// weighed against each other by the power heuristic (multiple importance
+    /// sampling, Veach 1995), so a small bright light in a wide lobe and a large one
+    /// in a sharp lobe are both found. Every light arrives by one route.
     fn glossy(
         &self,
         lobe: &Glossy,
@@ -279,8 +281,17 @@ impl<'a> Tracer<'a> {
             d if d < GLOSSY_DEPTH => 1,
             _ => 0,
         };
+        // The lobe's rays see area lights only where they read the solution (else
+        // the full shading behind them leaves emitters out): then the two are weighed.
+        let mis = n > 0 && self.total.is_some();
+        let lights = &self.sources[..self.scene.lights.len()];
+        let samples = |light: &SampledLight| match (light.is_area(), depth) {
+            (false, _) | (true, 1..) => 1,
+            (true, 0) => GLOSSY_LIGHT_SAMPLES.min(self.area_samples),
+        };
+        let power = |a: f32, b: f32| if a > 0.0 { a * a / (a * a + b * b) } else { 0.0 };
         let seed = derive(seed, Stream::Reflection);
-        let mut sum = Vec3::ZERO;
+        let mut l = Vec3::ZERO;
         for k in 0..n {
             let Some((wi_l, w)) = lobe.sample(wo_l, stratum(seed, 0, k, n)) else {
                 continue;
@@ -291,14 +302,18 @@ impl<'a> Tracer<'a> {
             }
             counters.reflection_rays += 1;
             let ray = sp.spawn(wi, f32::INFINITY);
-            sum += w * self.reflected(&ray, depth + 1, derive(seed, Stream::Sample(k)), counters);
+            let (radiance, emitter) =
+                self.reflected(&ray, depth + 1, derive(seed, Stream::Sample(k)), counters);
+            let mut got = radiance;
+            if let (true, Some((li, le, p_l))) = (mis, emitter) {
+                let p_b = lobe.pdf(wo_l, wi_l);
+                let r = samples(&lights[li as usize]) as f32;
+                got += le * power(n as f32 * p_b, r * p_l);
+            }
+            l += w * got / n as f32;
         }
-        let mut l = sum / n.max(1) as f32;
-        for (i, light) in self.sources[..self.scene.lights.len()].iter().enumerate() {
-            let r = match (light.is_area(), depth) {
-                (false, _) | (true, 1..) => 1,
-                (true, 0) => self.area_samples,
-            };
+        for (i, light) in lights.iter().enumerate() {
+            let r = samples(light);
             let light_seed = derive(seed, Stream::Light(i as u32));
             let mut cast = 0;
             for g in 0..r {
@@ -307,13 +322,23 @@ impl<'a> Tracer<'a> {
                 if sp.ns.dot(s.dir) <= 0.0 || sp.ng.dot(s.dir) <= 0.0 {
                     continue;
                 }
-                let f = lobe.eval(local(s.dir), wo_l);
+                let wi_l = local(s.dir);
+                let f = lobe.eval(wi_l, wo_l);
                 if f.max_element() <= 0.0 {
                     continue;
                 }
+                // The light sample's density per steradian, against the lobe's.
+                let weight = match (mis, light.area(), s.normal) {
+                    (true, Some(area), Some(nl)) => {
+                        let cos_l = -s.dir.dot(nl);
+                        let p_l = s.dist * s.dist / (cos_l * area).max(1e-12);
+                        power(r as f32 * p_l, n as f32 * lobe.pdf(wo_l, wi_l))
+                    }
+                    _ => 1.0,
+                };
                 cast += 1;
                 if !self.accel.occluded(&sp.shadow_ray(s.point, s.normal)) {
-                    l += f * s.value * (sp.ns.dot(s.dir) / r as f32);
+                    l += f * s.value * (sp.ns.dot(s.dir) * weight / r as f32);
                 }
             }
             counters.count_source(i, cast, 0);
@@ -323,20 +348,40 @@ impl<'a> Tracer<'a> {
 
     /// Radiance along a ray drawn from a glossy lobe, without emitters' radiance:
     /// with a solution, the total radiosity where it lands (scaled by a texture
-    /// there), and mirrors and lobes followed; without one, the full shading.
-    fn reflected(&self, ray: &Ray, depth: u32, seed: u32, counters: &mut Counters) -> Rgb {
+    /// there), and mirrors and lobes followed; without one, the full shading. With
+    /// a solution, also the area light it lands on, if it does (on its front): the
+    /// light's index, its radiance and the density per steradian of that light's own
+    /// samples at the point.
+    fn reflected(
+        &self,
+        ray: &Ray,
+        depth: u32,
+        seed: u32,
+        counters: &mut Counters,
+    ) -> (Rgb, Option<(u32, Rgb, f32)>) {
         let (Diffuse::Selected { mesh, .. }, Some(total)) = (&self.diffuse, &self.total) else {
-            return self.trace(ray, depth, seed, counters, None, false);
+            return (self.trace(ray, depth, seed, counters, None, false), None);
         };
         let Some(hit) = self.accel.intersect(ray) else {
-            return Vec3::ZERO;
+            return (Vec3::ZERO, None);
         };
         let sp = SurfacePoint::new(self.scene, ray, &hit);
-        let bsdf = &self.scene.bsdfs[self.scene.shapes[hit.shape as usize].bsdf as usize];
+        let shape = &self.scene.shapes[hit.shape as usize];
+        let emitter = match (sp.front, shape.emitter) {
+            (true, Some(e)) => match (&self.scene.lights[e as usize], self.sources[e as usize].area()) {
+                (crate::scene::Light::Area { radiance, .. }, Some(area)) => {
+                    let cos_l = (-ray.dir).dot(sp.ng).abs();
+                    Some((e, *radiance, hit.t * hit.t / (cos_l * area).max(1e-12)))
+                }
+                _ => None,
+            },
+            _ => None,
+        };
+        let bsdf = &self.scene.bsdfs[shape.bsdf as usize];
         let wo = -ray.dir;
         let cos_v = sp.ns.dot(wo);
         if (!sp.front && !bsdf.twosided) || cos_v <= 0.0 {
-            return Vec3::ZERO;
+            return (Vec3::ZERO, emitter);
         }
         let kind = match bsdf.textures.is_empty() {
             true => std::borrow::Cow::Borrowed(&bsdf.kind),
@@ -357,10 +402,12 @@ impl<'a> Tracer<'a> {
             if m.max_element() > 0.0 && dir.dot(sp.ng) > 0.0 {
                 counters.reflection_rays += 1;
                 let refl = sp.spawn(dir, f32::INFINITY);
-                l += m * self.reflected(&refl, depth + 1, derive(seed, Stream::Reflection), counters);
+                l += m * self
+                    .reflected(&refl, depth + 1, derive(seed, Stream::Reflection), counters)
+                    .0;
             }
         }
-        l
+        (l, emitter)
     }
 
     /// Direct light at a diffuse hit from the picked source: `pick.rays` groups of its
@@ -468,6 +515,9 @@ struct Shade<'s> {
 pub const GLOSSY_RAYS: u32 = 4;
 /// Lobes seen through this many lobes or mirrors take the lights alone, no rays.
 pub const GLOSSY_DEPTH: u32 = 2;
+/// Light samples of an area light at a primary glossy hit (weighed against the
+/// lobe's rays that meet the light).
+pub const GLOSSY_LIGHT_SAMPLES: u32 = 4;
 
 /// Per channel, a texture's value over the mean the solution was computed with (1
 /// where the mean is 0: nothing was stored there to scale).
