@@ -152,8 +152,9 @@ pub struct SolveArgs {
     #[arg(long, value_name = "N")]
     pub(super) photons: Option<u32>,
     /// Photons from the patches at most, whatever --photons asks for a large mesh (0:
-    /// no cap); in a scene with mirrors, the lights' photons aimed at them come beside
-    /// them (a sixteenth to four times as many, by the power the mirrors take).
+    /// no cap); in a scene with mirrors, the lights' photons aimed at them and the
+    /// shots' come beside them (the lights' a sixteenth to four times as many, by the
+    /// power the mirrors take), both together at most this many again.
     #[arg(long, default_value_t = 2_000_000, value_name = "N")]
     pub(super) max_photons: u64,
     /// Time budget of the solve in seconds: deterministic shots stop at half of it,

@@ -907,6 +907,12 @@ fn a_glossy_floor_passes_its_light_on_in_pass_1() {
         absorbed < emitted * 1.02 && absorbed > emitted * 0.95,
         "{absorbed} vs {emitted}"
     );
+    // A cap on the photons holds for the lights' and the shots' photons together as
+    // well: at most twice it in all.
+    let mut capped = st;
+    capped.max_photons = 3000;
+    let c = solve(&s, &bvh, &capped, &Silent).unwrap();
+    assert!(c.stats.photons <= 6000 && c.stats.photons > 3000, "{:?}", c.stats);
     s.bsdfs[b].kind = BsdfKind::Diffuse {
         reflectance: Vec3::ZERO,
     };

@@ -91,7 +91,7 @@ pub(super) enum Child<'a, 'i> {
 /// parameters nobody asked for.
 pub(super) struct Obj<'a, 'i> {
     pub(super) src: Src<'a, 'i>,
-    node: Node<'a, 'i>,
+    pub(super) node: Node<'a, 'i>,
     /// E.g. "shape 'sphere'", for messages.
     pub(super) what: String,
     props: Vec<Prop<'a, 'i>>,

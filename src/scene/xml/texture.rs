@@ -200,6 +200,14 @@ impl Loader {
         let filter = match obj.string("filter_type")?.as_deref().unwrap_or("bilinear") {
             "bilinear" => TexFilter::Bilinear,
             "nearest" => TexFilter::Nearest,
+            // Mitsuba 0.6's mipmapped filters (its default was `ewa`), which Mitsuba 3
+            // no longer has: filtered bilinearly, with a warning.
+            f @ ("trilinear" | "ewa") if obj.src.legacy => {
+                let msg =
+                    format!("texture filter '{f}' (Mitsuba 0.6) read as 'bilinear': radtrace has no mipmaps");
+                self.warn(obj.src, obj.node, msg);
+                TexFilter::Bilinear
+            }
             f => return Err(obj.err_param("filter_type", format!("= '{f}' is not 'bilinear' or 'nearest'"))),
         };
         let wrap = match obj.string("wrap_mode")?.as_deref().unwrap_or("repeat") {
