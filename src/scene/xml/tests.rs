@@ -1134,6 +1134,28 @@ fn legacy_upgrade_edge_cases() {
     let unknown = unknown(&l);
     assert_eq!(unknown.len(), 1, "{:?}", l.warnings);
     assert!(unknown[0].contains("'to_uv'"), "{:?}", l.warnings);
+    // Mitsuba 0.6's mipmapped filters are read as bilinear in a 0.6 file (a
+    // warning), and refused in a Mitsuba 3 file, as Mitsuba 3 refuses them.
+    let dir = tempfile::tempdir().unwrap();
+    write_png(dir.path(), "t.png", [1, 2, 3], [4, 5, 6]);
+    for (version, ok) in [("0.6.0", true), ("3.0.0", false)] {
+        let xml = format!(
+            "<scene version=\"{version}\">\n{SENSOR}\n<bsdf type=\"diffuse\" id=\"a\">\
+             <texture type=\"bitmap\" name=\"reflectance\"><string name=\"filename\" value=\"t.png\"/>\
+             <string name=\"filter_type\" value=\"trilinear\"/></texture></bsdf>\n</scene>"
+        );
+        let path = dir.path().join("scene.xml");
+        fs::write(&path, xml).unwrap();
+        match (load(&path, &[]), ok) {
+            (Ok(l), true) => assert!(
+                l.warnings.iter().any(|w| w.contains("'trilinear'")),
+                "{:?}",
+                l.warnings
+            ),
+            (Err(e), false) => assert!(e.to_string().contains("'trilinear'"), "{e}"),
+            (r, _) => panic!("{version}: {:?}", r.map(|l| l.warnings)),
+        }
+    }
     let m = properties::legacy_to_uv([0.25, 0.5, 4.0, 2.0]);
     assert!(close(m.transform_point3(Vec3::ZERO), Vec3::new(1.0, 1.0, 0.0)));
     assert!(close(
