@@ -2,9 +2,10 @@
 //! shading normals, side) and the one rule by which rays leave a surface.
 
 use glam::{Vec2, Vec3};
+use std::borrow::Cow;
 
 use crate::accel::{Hit, Ray};
-use crate::scene::Scene;
+use crate::scene::{Bsdf, BsdfKind, Scene};
 
 /// The local geometry at a ray hit.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -81,6 +82,18 @@ impl SurfacePoint {
             }
             _ => self.bary,
         }
+    }
+
+    /// The material here: the shape's BSDF, and its reflection model with its
+    /// textures looked up at this point's (u, v) (the model itself when untextured).
+    pub fn material<'s>(&self, scene: &'s Scene) -> (&'s Bsdf, Cow<'s, BsdfKind>) {
+        let bsdf = &scene.bsdfs[scene.shapes[self.shape as usize].bsdf as usize];
+        let kind = if bsdf.textures.is_empty() {
+            Cow::Borrowed(&bsdf.kind)
+        } else {
+            bsdf.kind_at(self.uv(scene), &scene.textures)
+        };
+        (bsdf, kind)
     }
 
     /// A ray leaving this point in `dir` (on the side `dir` points to), ending at

@@ -107,7 +107,42 @@ impl Fresnel {
     }
 }
 
+/// The local frame of a lobe: a unit normal (+z) and two tangents about it (chosen
+/// from the normal alone: radtrace's surfaces carry no tangents).
+#[derive(Debug, Clone, Copy)]
+pub struct Frame {
+    t: Vec3,
+    b: Vec3,
+    n: Vec3,
+}
+
+impl Frame {
+    /// The frame round unit normal `n`.
+    pub fn new(n: Vec3) -> Self {
+        let (t, b) = n.any_orthonormal_pair();
+        Frame { t, b, n }
+    }
+
+    /// World direction `d` in the frame.
+    pub fn local(&self, d: Vec3) -> Vec3 {
+        Vec3::new(d.dot(self.t), d.dot(self.b), d.dot(self.n))
+    }
+
+    /// Local direction `v` in the world.
+    pub fn world(&self, v: Vec3) -> Vec3 {
+        self.t * v.x + self.b * v.y + self.n * v.z
+    }
+}
+
 impl Glossy {
+    /// [`Self::sample`] in world directions: a direction drawn for viewing direction
+    /// `wo` at a surface of shading normal `n`, with its weight.
+    pub fn sample_around(&self, n: Vec3, wo: Vec3, u: Vec2) -> Option<(Vec3, Rgb)> {
+        let frame = Frame::new(n);
+        let (wi, w) = self.sample(frame.local(wo), u)?;
+        Some((frame.world(wi), w))
+    }
+
     /// The BRDF (without the cosine) between `wi` and `wo`, local frame.
     pub fn eval(&self, wi: Vec3, wo: Vec3) -> Rgb {
         if wi.z <= 0.0 || wo.z <= 0.0 {
@@ -207,6 +242,8 @@ mod tests {
     /// (times the cosine, as Mitsuba's `eval` returns it) against `roughconductor`'s.
     #[test]
     fn fresnel_and_the_lobe_match_mitsuba() {
+        // At normal incidence, ((eta - 1)^2 + k^2) / ((eta + 1)^2 + k^2): 0.04 for glass.
+        assert!((fresnel_conductor(1.0, 1.5, 0.0) - 0.04).abs() < 1e-6);
         for (c, f) in [(1.0, 0.928_047_5), (0.5, 0.913_666), (0.1, 0.844_957_9)] {
             let v = fresnel_conductor(c, 1.65746, 9.22387);
             assert!(near(v, f, 1e-5), "{c}: {v} vs {f}");

@@ -35,6 +35,18 @@ pub fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
     }
 }
 
+/// The diffuse base of Mitsuba's `plastic` behind its coating: the reflectance with
+/// the light the coating reflects back inside added (`nonlinear`: per channel, as
+/// repeated bounces; otherwise as one mean term).
+fn plastic_base(d: Rgb, eta: f32, nonlinear: bool) -> Rgb {
+    let fdr_int = fresnel_diffuse_reflectance(1.0 / eta);
+    if nonlinear {
+        d / (Vec3::ONE - d * fdr_int)
+    } else {
+        d / (1.0 - fdr_int)
+    }
+}
+
 impl BsdfKind {
     /// The diffuse BRDF value (1/sr, without the cosine) between the light direction
     /// at cosine `cos_l` and the view direction at cosine `cos_v`, both measured from
@@ -49,15 +61,9 @@ impl BsdfKind {
                 nonlinear,
                 ..
             } => {
-                let fdr_int = fresnel_diffuse_reflectance(1.0 / eta);
-                let d = *diffuse_reflectance;
-                let d = if *nonlinear {
-                    d / (Vec3::ONE - d * fdr_int)
-                } else {
-                    d / (1.0 - fdr_int)
-                };
                 let t = (1.0 - fresnel_dielectric(cos_l, *eta)) * (1.0 - fresnel_dielectric(cos_v, *eta));
-                d * (t / (eta * eta) * std::f32::consts::FRAC_1_PI)
+                plastic_base(*diffuse_reflectance, *eta, *nonlinear)
+                    * (t / (eta * eta) * std::f32::consts::FRAC_1_PI)
             }
             BsdfKind::Blend { weight, a, b } => {
                 a.diffuse_brdf(cos_l, cos_v) * (1.0 - weight) + b.diffuse_brdf(cos_l, cos_v) * *weight
@@ -119,18 +125,26 @@ impl BsdfKind {
             BsdfKind::Blend { weight, a, b } => {
                 a.diffuse_albedo() * (1.0 - weight) + b.diffuse_albedo() * *weight
             }
-            BsdfKind::Plastic { .. } => {
+            BsdfKind::Plastic {
+                diffuse_reflectance,
+                eta,
+                nonlinear,
+                ..
+            } => {
                 // rho = pi * integral f cos cos over both hemispheres / pi^2 (cosine-weighted
-                // average of the directional albedo): midpoint rule in cos.
+                // average of the directional albedo), midpoint rule in cos. The BRDF is the
+                // base times a product of one transmittance per direction, so the double
+                // integral is the square of one (32 Fresnel terms, not 32 x 32: it runs at
+                // every photon hit and every gathered hit).
                 let n = 32;
-                let mut sum = Vec3::ZERO;
-                for a in 0..n {
-                    for b in 0..n {
-                        let (ci, co) = ((a as f32 + 0.5) / n as f32, (b as f32 + 0.5) / n as f32);
-                        sum += self.diffuse_brdf(ci, co) * (ci * co);
-                    }
-                }
-                sum * (4.0 * std::f32::consts::PI / (n * n) as f32)
+                let one: f32 = (0..n)
+                    .map(|a| {
+                        let c = (a as f32 + 0.5) / n as f32;
+                        (1.0 - fresnel_dielectric(c, *eta)) * c
+                    })
+                    .sum::<f32>()
+                    / n as f32;
+                plastic_base(*diffuse_reflectance, *eta, *nonlinear) * (4.0 * one * one / (eta * eta))
             }
         }
     }

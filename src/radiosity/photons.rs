@@ -230,35 +230,10 @@ impl<'a> Tracer<'a> {
             // at normal incidence, then weighs it by the lobe's sampling weight over
             // that (the lobe reflects at most that fraction, nearly, at any angle).
             let pg = glossy.map_or(0.0, |g| mean(g.scale * g.fresnel.f0()).clamp(0.0, 1.0));
-            if first {
-                // Straight from a light or a shot: the deterministic shots hold that;
-                // only the mirrors and glossy metals pass it on.
-                first = false;
-                let ps = mean(spec).min(1.0);
-                let [u, a, b] = next();
-                if u < ps {
-                    dir = reflect(dir, sp.ns);
-                    if !reflects(dir, sp.ng) {
-                        return;
-                    }
-                    power *= spec / ps;
-                } else if u < ps + pg {
-                    let Some((d, w)) = glossy.and_then(|g| glossy_bounce(&g, &sp, dir, Vec2::new(a, b)))
-                    else {
-                        return;
-                    };
-                    dir = d;
-                    power *= w / pg;
-                } else {
-                    return;
-                }
-                origin = sp.p;
-                normal = sp.ng;
-                source = None;
-                continue;
-            }
-            let q = self.mesh.patch_at(self.scene, &hit, sp.front);
-            if rho.max_element() > 0.0 {
+            // Straight from a light or a shot, the deterministic shots hold the light
+            // a diffuse surface takes: only the mirrors and glossy metals pass it on.
+            let q = (!first).then(|| self.mesh.patch_at(self.scene, &hit, sp.front));
+            if let Some(q) = q.filter(|_| rho.max_element() > 0.0) {
                 let w = self.mesh.locate_on(self.scene, q, &hit, sp.p);
                 let slot = source
                     .and_then(|s| self.lists[q as usize].iter().position(|e| e.source == s))
@@ -279,7 +254,9 @@ impl<'a> Tracer<'a> {
                     }
                 }
             }
-            let (pd, ps) = (mean(rho).min(1.0), mean(spec).min(1.0));
+            let pd = if first { 0.0 } else { mean(rho).min(1.0) };
+            let ps = mean(spec).min(1.0);
+            first = false;
             let [u, a, b] = next();
             if u < pd {
                 power *= rho / pd;
@@ -287,7 +264,7 @@ impl<'a> Tracer<'a> {
                 if dir.dot(sp.ng) <= 0.0 {
                     return;
                 }
-                source = Some(SourceId::Patch(q));
+                source = q.map(SourceId::Patch);
                 caustic = false;
             } else if u < pd + ps && ps > 0.0 {
                 power *= spec / ps;
@@ -646,11 +623,7 @@ pub fn specular_area_share(scene: &Scene) -> f64 {
 /// its new direction and the lobe's weight (`eval * cos / pdf`); `None` if it leaves
 /// below the surface.
 fn glossy_bounce(lobe: &Glossy, sp: &SurfacePoint, dir: Vec3, u: Vec2) -> Option<(Vec3, Rgb)> {
-    let (t, b) = sp.ns.any_orthonormal_pair();
-    let wo = -dir;
-    let wo_l = Vec3::new(wo.dot(t), wo.dot(b), wo.dot(sp.ns));
-    let (wi_l, w) = lobe.sample(wo_l, u)?;
-    let wi = t * wi_l.x + b * wi_l.y + sp.ns * wi_l.z;
+    let (wi, w) = lobe.sample_around(sp.ns, -dir, u)?;
     reflects(wi, sp.ng).then_some((wi, w))
 }
 

@@ -56,7 +56,7 @@ use crate::emitters::{group_point, SampledLight};
 use crate::interaction::{reflect, SurfacePoint};
 use crate::radiosity::Solution;
 use crate::radiosity::SourceId;
-use crate::sampling::{derive, pixel_seed, uniform2, Stream};
+use crate::sampling::{derive, pixel_seed, uniform2, uniform3, Stream};
 use crate::scene::{Rgb, Scene};
 use crate::selection::Selection;
 
@@ -525,12 +525,12 @@ impl Gather {
             let (dir, weight) = match bsdf.kind.glossy() {
                 // A glossy metal: on along one direction drawn from its lobe.
                 Some(lobe) if mirror.max_element() <= 0.0 => {
-                    let (t, b) = y.ns.any_orthonormal_pair();
-                    let wo = -ray.dir;
-                    let wo_l = Vec3::new(wo.dot(t), wo.dot(b), wo.dot(y.ns));
-                    let u = uniform2(derive(derive(seed, Stream::Sample(k)), Stream::Reflection) ^ bounce);
-                    match lobe.sample(wo_l, u) {
-                        Some((wi, w)) => (t * wi.x + b * wi.y + y.ns * wi.z, w),
+                    let [u, v, _] = uniform3(
+                        derive(derive(seed, Stream::Sample(k)), Stream::Reflection),
+                        bounce,
+                    );
+                    match lobe.sample_around(y.ns, -ray.dir, Vec2::new(u, v)) {
+                        Some(s) => s,
                         None => break,
                     }
                 }

@@ -7,6 +7,7 @@ use super::gather::{self, Gather};
 use super::sib::{self, SibQuery};
 use super::Settings;
 use crate::accel::{Accel, Ray};
+use crate::bsdf::microfacet::Frame;
 use crate::emitters::{group_point, SampledLight};
 use crate::interaction::{reflect, SurfacePoint};
 use crate::mesh::RadiosityMesh;
@@ -151,7 +152,7 @@ impl<'a> Tracer<'a> {
                 }
             }
         }
-        let bsdf: &Bsdf = &self.scene.bsdfs[shape.bsdf as usize];
+        let (bsdf, kind) = sp.material(self.scene);
         if !sp.front && !bsdf.twosided {
             return l; // the back of a one-sided material is black, as in Mitsuba
         }
@@ -160,15 +161,9 @@ impl<'a> Tracer<'a> {
         if cos_v <= 0.0 {
             return l;
         }
-        // The material here, its textures looked up; what the solution stored was
-        // reflected with their means, so it is scaled by the texture's ratio to them.
-        let kind = match bsdf.textures.is_empty() {
-            true => std::borrow::Cow::Borrowed(&bsdf.kind),
-            false => bsdf.kind_at(sp.uv(self.scene), &self.scene.textures),
-        };
         if kind.has_diffuse() {
             counters.diffuse_hits += 1;
-            let textured = texture_ratio(kind.diffuse_albedo(), bsdf.kind.diffuse_albedo());
+            let textured = texture_ratio(bsdf, &kind);
             let shade = Shade {
                 sp: &sp,
                 kind: &kind,
@@ -273,9 +268,8 @@ impl<'a> Tracer<'a> {
         seed: u32,
         counters: &mut Counters,
     ) -> Rgb {
-        let (t, b) = sp.ns.any_orthonormal_pair();
-        let local = |d: Vec3| Vec3::new(d.dot(t), d.dot(b), d.dot(sp.ns));
-        let wo_l = local(wo);
+        let frame = Frame::new(sp.ns);
+        let wo_l = frame.local(wo);
         let n = match depth {
             0 => GLOSSY_RAYS,
             d if d < GLOSSY_DEPTH => 1,
@@ -296,7 +290,7 @@ impl<'a> Tracer<'a> {
             let Some((wi_l, w)) = lobe.sample(wo_l, stratum(seed, 0, k, n)) else {
                 continue;
             };
-            let wi = t * wi_l.x + b * wi_l.y + sp.ns * wi_l.z;
+            let wi = frame.world(wi_l);
             if wi.dot(sp.ng) <= 0.0 {
                 continue;
             }
@@ -322,7 +316,7 @@ impl<'a> Tracer<'a> {
                 if sp.ns.dot(s.dir) <= 0.0 || sp.ng.dot(s.dir) <= 0.0 {
                     continue;
                 }
-                let wi_l = local(s.dir);
+                let wi_l = frame.local(s.dir);
                 let f = lobe.eval(wi_l, wo_l);
                 if f.max_element() <= 0.0 {
                     continue;
@@ -366,8 +360,7 @@ impl<'a> Tracer<'a> {
             return (Vec3::ZERO, None);
         };
         let sp = SurfacePoint::new(self.scene, ray, &hit);
-        let shape = &self.scene.shapes[hit.shape as usize];
-        let emitter = match (sp.front, shape.emitter) {
+        let emitter = match (sp.front, self.scene.shapes[hit.shape as usize].emitter) {
             (true, Some(e)) => match (&self.scene.lights[e as usize], self.sources[e as usize].area()) {
                 (crate::scene::Light::Area { radiance, .. }, Some(area)) => {
                     let cos_l = (-ray.dir).dot(sp.ng).abs();
@@ -377,21 +370,16 @@ impl<'a> Tracer<'a> {
             },
             _ => None,
         };
-        let bsdf = &self.scene.bsdfs[shape.bsdf as usize];
+        let (bsdf, kind) = sp.material(self.scene);
         let wo = -ray.dir;
         let cos_v = sp.ns.dot(wo);
         if (!sp.front && !bsdf.twosided) || cos_v <= 0.0 {
             return (Vec3::ZERO, emitter);
         }
-        let kind = match bsdf.textures.is_empty() {
-            true => std::borrow::Cow::Borrowed(&bsdf.kind),
-            false => bsdf.kind_at(sp.uv(self.scene), &self.scene.textures),
-        };
         let mut l = Vec3::ZERO;
         if kind.has_diffuse() {
             let interp = mesh.locate(self.scene, &hit, sp.p, sp.front);
-            let textured = texture_ratio(kind.diffuse_albedo(), bsdf.kind.diffuse_albedo());
-            l += interp.apply(total) * textured * std::f32::consts::FRAC_1_PI;
+            l += interp.apply(total) * texture_ratio(bsdf, &kind) * std::f32::consts::FRAC_1_PI;
         }
         if depth < self.max_depth {
             if let Some(lobe) = kind.glossy() {
@@ -519,12 +507,18 @@ pub const GLOSSY_DEPTH: u32 = 2;
 /// lobe's rays that meet the light).
 pub const GLOSSY_LIGHT_SAMPLES: u32 = 4;
 
-/// Per channel, a texture's value over the mean the solution was computed with (1
-/// where the mean is 0: nothing was stored there to scale).
-fn texture_ratio(here: Rgb, mean: Rgb) -> Rgb {
+/// Per channel, the diffuse albedo of `kind` (`bsdf`'s model with its textures looked
+/// up at a point) over the albedo the solution was computed with, `bsdf`'s own (1 for
+/// an untextured material, and where that albedo is 0: nothing was stored there to
+/// scale).
+fn texture_ratio(bsdf: &Bsdf, kind: &BsdfKind) -> Rgb {
+    if bsdf.textures.is_empty() {
+        return Vec3::ONE;
+    }
+    let mean = bsdf.kind.diffuse_albedo();
     Vec3::select(
         mean.cmpgt(Vec3::ZERO),
-        here / mean.max(Vec3::splat(f32::MIN_POSITIVE)),
+        kind.diffuse_albedo() / mean.max(Vec3::splat(f32::MIN_POSITIVE)),
         Vec3::ONE,
     )
 }

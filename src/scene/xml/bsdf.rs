@@ -220,52 +220,7 @@ impl Loader {
             );
         }
         let scale = obj.reflectance("specular_reflectance", 1.0)?;
-        let ext = match obj.scalar("ext_eta")? {
-            Some(e) if e > 0.0 => e,
-            Some(e) => return Err(obj.err_param("ext_eta", format!("= {e} must be positive"))),
-            None => 1.0,
-        };
-        let material = obj.string("material")?;
-        let fresnel = if obj.get("eta").is_some() || obj.get("k").is_some() {
-            if material.as_deref().is_some_and(|m| m != "none") {
-                return Err(s.err(
-                    c,
-                    "bsdf 'roughconductor': give either 'material' or 'eta'/'k', not both",
-                ));
-            }
-            Fresnel::Conductor {
-                eta: obj.nonnegative("eta", 0.0)? / ext,
-                k: obj.nonnegative("k", 1.0)? / ext,
-            }
-        } else {
-            match material.as_deref().unwrap_or("none") {
-                "none" => Fresnel::Schlick { f0: Vec3::ONE },
-                m => match parse::conductor_f0(m) {
-                    Some(f0) => {
-                        self.warn(
-                            s,
-                            c,
-                            format!(
-                                "conductor material '{m}': its Fresnel term follows Schlick's \
-                                 curve from its reflectance at normal incidence {f0}"
-                            ),
-                        );
-                        Fresnel::Schlick { f0 }
-                    }
-                    None => {
-                        self.warn(
-                            s,
-                            c,
-                            format!(
-                                "conductor material '{m}' is not known to radtrace: rendered \
-                                 with reflectance 1"
-                            ),
-                        );
-                        Fresnel::Schlick { f0: Vec3::ONE }
-                    }
-                },
-            }
-        };
+        let fresnel = self.conductor_fresnel(s, c, obj)?;
         Ok(Glossy {
             distribution: Microfacet {
                 alpha_u,
@@ -277,65 +232,71 @@ impl Loader {
         })
     }
 
-    /// A conductor as a mirror of constant reflectance, and its reflectance at normal
-    /// incidence (which multiplies `specular_reflectance`).
-    fn conductor(&mut self, s: Src, c: Node, obj: &Obj) -> Result<(BsdfKind, Vec3)> {
-        let scale = obj.reflectance("specular_reflectance", 1.0)?;
-        let material = obj.string("material")?;
-        // Mitsuba 0.6's exterior index divides both.
+    /// A conductor's Fresnel term, as `conductor` and `roughconductor` read it: from
+    /// `eta` and `k` per channel (Mitsuba 0.6's `ext_eta` divides both), or a named
+    /// `material` by Schlick's curve from its reflectance at normal incidence (the one
+    /// thing radtrace knows of it; a warning), or 1 for `none`, the default.
+    fn conductor_fresnel(&mut self, s: Src, c: Node, obj: &Obj) -> Result<Fresnel> {
         let ext = match obj.scalar("ext_eta")? {
             Some(e) if e > 0.0 => e,
             Some(e) => return Err(obj.err_param("ext_eta", format!("= {e} must be positive"))),
             None => 1.0,
         };
-        let eta = obj.scalar("eta")?.map(|e| e / ext);
-        let k = obj.scalar("k")?.map(|k| k / ext);
-        let f0 = if eta.is_some() || k.is_some() {
+        let material = obj.string("material")?;
+        if obj.get("eta").is_some() || obj.get("k").is_some() {
             if material.as_deref().is_some_and(|m| m != "none") {
                 return Err(s.err(
                     c,
-                    "bsdf 'conductor': give either 'material' or 'eta'/'k', not both",
+                    format!("{}: give either 'material' or 'eta'/'k', not both", obj.what),
                 ));
             }
-            let f = parse::fresnel_f0(eta.unwrap_or(0.0), k.unwrap_or(1.0));
+            return Ok(Fresnel::Conductor {
+                eta: obj.nonnegative("eta", 0.0)? / ext,
+                k: obj.nonnegative("k", 1.0)? / ext,
+            });
+        }
+        Ok(match material.as_deref().unwrap_or("none") {
+            "none" => Fresnel::Schlick { f0: Vec3::ONE },
+            m => match parse::conductor_f0(m) {
+                Some(f0) => {
+                    self.warn(
+                        s,
+                        c,
+                        format!(
+                            "conductor material '{m}': radtrace knows only its reflectance at \
+                             normal incidence {f0}, and follows Schlick's curve from it"
+                        ),
+                    );
+                    Fresnel::Schlick { f0 }
+                }
+                None => {
+                    self.warn(
+                        s,
+                        c,
+                        format!("conductor material '{m}' is not known to radtrace: reflectance 1"),
+                    );
+                    Fresnel::Schlick { f0: Vec3::ONE }
+                }
+            },
+        })
+    }
+
+    /// A conductor as a mirror of constant reflectance (its Fresnel term at normal
+    /// incidence, which multiplies `specular_reflectance`), and that reflectance.
+    fn conductor(&mut self, s: Src, c: Node, obj: &Obj) -> Result<(BsdfKind, Vec3)> {
+        let scale = obj.reflectance("specular_reflectance", 1.0)?;
+        let fresnel = self.conductor_fresnel(s, c, obj)?;
+        let f0 = fresnel.f0();
+        if f0 != Vec3::ONE {
             self.warn(
                 s,
                 c,
                 format!(
-                    "conductor with eta/k rendered as a mirror of constant reflectance {f} \
-                     (its value at normal incidence)"
+                    "smooth conductor rendered as a mirror of constant reflectance {f0} (its \
+                     value at normal incidence)"
                 ),
             );
-            Vec3::splat(f)
-        } else {
-            match material.as_deref().unwrap_or("none") {
-                "none" => Vec3::ONE,
-                m => match parse::conductor_f0(m) {
-                    Some(f0) => {
-                        self.warn(
-                            s,
-                            c,
-                            format!(
-                                "conductor material '{m}' rendered as a mirror of constant \
-                                 reflectance {f0} (its value at normal incidence)"
-                            ),
-                        );
-                        f0
-                    }
-                    None => {
-                        self.warn(
-                            s,
-                            c,
-                            format!(
-                                "conductor material '{m}' is not known to radtrace: rendered \
-                                 as a perfect mirror (reflectance 1)"
-                            ),
-                        );
-                        Vec3::ONE
-                    }
-                },
-            }
-        };
+        }
         Ok((
             BsdfKind::Conductor {
                 specular_reflectance: scale * f0,

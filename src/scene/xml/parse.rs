@@ -238,12 +238,6 @@ pub fn conductor_f0(material: &str) -> Option<Vec3> {
         .map(|(_, v)| Vec3::from_array(*v))
 }
 
-/// Fresnel reflectance at normal incidence of a conductor with complex index
-/// `eta + i k` (relative to the outside medium).
-pub fn fresnel_f0(eta: f32, k: f32) -> f32 {
-    ((eta - 1.0).powi(2) + k * k) / ((eta + 1.0).powi(2) + k * k)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -323,6 +317,5 @@ mod tests {
         assert_eq!(named_ior("air"), Some(1.000277));
         assert_eq!(named_ior("unobtainium"), None);
         assert!(conductor_f0("Au").unwrap().x > 0.99);
-        assert!((fresnel_f0(1.5, 0.0) - 0.04).abs() < 1e-6);
     }
 }

@@ -47,13 +47,9 @@ impl<'a, 'i> Obj<'a, 'i> {
         Ok(c)
     }
 
-    /// A radiance or intensity: a colour with no negative channel.
+    /// A radiance or intensity: a colour with no negative channel (1 by default).
     pub(super) fn emission(&self, name: &str) -> Result<Rgb> {
-        let c = self.color(name, 1.0)?;
-        if c.min_element() < 0.0 {
-            return Err(self.err_param(name, format!("is negative ({c})")));
-        }
-        Ok(c)
+        self.nonnegative(name, 1.0)
     }
 
     /// A scalar that Mitsuba reads as a texture (`weight`): a float, or the mean of a
