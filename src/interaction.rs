@@ -4,7 +4,7 @@
 use glam::{Vec2, Vec3};
 use std::borrow::Cow;
 
-use crate::accel::{Hit, Ray};
+use crate::accel::{Accel, Hit, Ray};
 use crate::scene::{Bsdf, BsdfKind, Scene};
 
 /// The local geometry at a ray hit.
@@ -164,6 +164,44 @@ pub fn shadow_ray(p: Vec3, n: Vec3, q: Vec3, q_normal: Option<Vec3>) -> Ray {
         tmin: 0.0,
         tmax,
     }
+}
+
+/// The share of light that arrives along shadow ray `ray`: 0 if a surface that stops
+/// shadow rays lies on it ([`Accel::occluded`]), else [`pane_transmittance`]: the one
+/// visibility query of both passes.
+pub fn transmittance(scene: &Scene, accel: &dyn Accel, ray: &Ray) -> f32 {
+    if accel.occluded(ray) {
+        0.0
+    } else {
+        pane_transmittance(scene, accel, ray)
+    }
+}
+
+/// The product of the transmittances of the thin panes of glass shadow ray `ray`
+/// crosses (1 if none; the panes are traced alone, [`Accel::panes`]). Kept apart from
+/// the occlusion, which the shadow image buffer reuses, so that a reused "lit" is
+/// dimmed by the panes as a cast one is.
+pub fn pane_transmittance(scene: &Scene, accel: &dyn Accel, ray: &Ray) -> f32 {
+    let Some(panes) = accel.panes() else {
+        return 1.0;
+    };
+    let mut r = *ray;
+    let mut share = 1.0;
+    // Panes are few along a ray; a bound keeps a degenerate stack of them finite.
+    for _ in 0..64 {
+        let Some(hit) = panes.intersect(&r) else {
+            break;
+        };
+        let sp = SurfacePoint::new(scene, &r, &hit);
+        let cos = sp.ng.dot(r.dir) / r.dir.length();
+        let bsdf = &scene.bsdfs[scene.shapes[hit.shape as usize].bsdf as usize];
+        share *= bsdf.kind.shadow_transmittance(cos).unwrap_or(0.0);
+        if share <= 0.0 {
+            return 0.0;
+        }
+        r.tmin = hit.t + ray_epsilon(sp.p) / r.dir.length();
+    }
+    share
 }
 
 #[cfg(test)]

@@ -18,6 +18,8 @@ pub enum Stream {
     Path,
     /// The continuation of a path after a mirror reflection.
     Reflection,
+    /// The continuation of a path through glass.
+    Transmission,
     /// The light points of ray-traced source `s` at one hit.
     Light(u32),
     /// Where in each shooting cell the shadow rays of mesh vertex `v` aim (pass 1):
@@ -41,6 +43,7 @@ impl Stream {
             Stream::Sample(k) => k.wrapping_mul(0x9E37_79B9),
             Stream::Path => 0x2545_f491,
             Stream::Reflection => 0x5bd1_e995,
+            Stream::Transmission => 0x3c6e_f372,
             Stream::Light(s) => s.wrapping_mul(0x85eb_ca6b),
             Stream::Receiver(v) => v.wrapping_mul(0xc2b2_ae35) ^ 0x27d4_eb2f,
             Stream::Cells(k) => k.wrapping_mul(0x1656_67b1) ^ 0x9e37_79b9,

@@ -177,16 +177,41 @@ pub struct Bvh {
     pub skipped: usize,
     /// The exact spheres and disks, whose triangles are not in the tree.
     pub(super) quadrics: Quadrics,
+    /// Per block, the lanes (bit k: triangle 4b + k) that stop shadow rays; empty
+    /// when all do (no thin glass in the scene).
+    pub(super) opaque: Vec<u8>,
+    /// The thin panes alone, if the scene has any.
+    pub(super) panes: Option<Box<Bvh>>,
 }
 
 impl Bvh {
-    /// Builds the BVH over every non-degenerate triangle of `scene`.
+    /// Builds the BVH over every non-degenerate triangle of `scene`; with thin glass
+    /// in the scene, also one of the panes alone ([`Accel::panes`]).
     pub fn build(scene: &Scene) -> Self {
+        let mut bvh = Self::build_of(scene, &|_| true);
+        if (0..scene.shapes.len()).any(|s| scene.passes_shadows(s as u32)) {
+            bvh.opaque = bvh
+                .refs
+                .chunks(4)
+                .map(|c| {
+                    c.iter()
+                        .enumerate()
+                        .filter(|(_, r)| !scene.passes_shadows(r.shape))
+                        .fold(0u8, |m, (k, _)| m | 1 << k)
+                })
+                .collect();
+            bvh.panes = Some(Box::new(Self::build_of(scene, &|s| scene.passes_shadows(s))));
+        }
+        bvh
+    }
+
+    /// The BVH over the shapes `keep` takes.
+    fn build_of(scene: &Scene, keep: &dyn Fn(u32) -> bool) -> Self {
         let mut tris = Vec::new();
         let mut refs = Vec::new();
         let mut skipped = 0;
         for (s, shape) in scene.shapes.iter().enumerate() {
-            if shape.mesh.quadric.is_some() {
+            if shape.mesh.quadric.is_some() || !keep(s as u32) {
                 continue;
             }
             for t in 0..shape.mesh.triangle_count() {
@@ -209,7 +234,7 @@ impl Bvh {
             }
         }
         Bvh {
-            quadrics: Quadrics::build(scene),
+            quadrics: Quadrics::build(scene, keep),
             ..Self::from_triangles(tris, refs, skipped)
         }
     }
@@ -226,6 +251,8 @@ impl Bvh {
                 count: 0,
                 skipped,
                 quadrics: Quadrics::empty(),
+                opaque: Vec::new(),
+                panes: None,
             };
         }
         let mut build_time = Default::default();
@@ -254,6 +281,8 @@ impl Bvh {
             count: corners.len(),
             skipped,
             quadrics: Quadrics::empty(),
+            opaque: Vec::new(),
+            panes: None,
         }
     }
 
@@ -408,7 +437,11 @@ impl Bvh {
 
     #[inline(always)]
     fn any_in_block(&self, r: &PreparedRay, b: usize, lanes: u32, tmax: f32, hit: &mut bool) -> Option<f32> {
-        if self.blocks[b].intersect(r, lanes, tmax).0 != 0 {
+        let lanes = match self.opaque.get(b) {
+            Some(&m) => lanes & u32::from(m),
+            None => lanes,
+        };
+        if lanes != 0 && self.blocks[b].intersect(r, lanes, tmax).0 != 0 {
             *hit = true;
             None
         } else {
@@ -434,6 +467,10 @@ impl Accel for Bvh {
 
     fn occluded(&self, ray: &Ray) -> bool {
         (!self.nodes.is_empty() && self.any_hit(&PreparedRay::new(ray))) || self.quadrics.any(ray)
+    }
+
+    fn panes(&self) -> Option<&dyn Accel> {
+        self.panes.as_deref().map(|b| b as &dyn Accel)
     }
 }
 

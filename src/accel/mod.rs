@@ -71,8 +71,16 @@ pub struct Hit {
 pub trait Accel: Send + Sync {
     /// The closest hit in `[ray.tmin, ray.tmax]`, if any.
     fn intersect(&self, ray: &Ray) -> Option<Hit>;
-    /// Whether anything lies in `[ray.tmin, ray.tmax]`; stops at the first hit found.
+    /// Whether anything that stops shadow rays lies in `[ray.tmin, ray.tmax]` (every
+    /// surface but thin glass, [`Scene::passes_shadows`]); stops at the first hit found.
+    ///
+    /// [`Scene::passes_shadows`]: crate::scene::Scene::passes_shadows
     fn occluded(&self, ray: &Ray) -> bool;
+    /// The surfaces [`Accel::occluded`] passes through, alone (`None` if there are
+    /// none): `interaction::transmittance` finds how much light they let through.
+    fn panes(&self) -> Option<&dyn Accel> {
+        None
+    }
 }
 
 /// Identifies a triangle of the scene.

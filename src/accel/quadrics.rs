@@ -18,17 +18,20 @@ pub(super) struct Quadrics {
     /// In the BVH's primitive order: the shape and its surface.
     items: Vec<(u32, Quadric)>,
     bvh: Option<Bvh2>,
+    /// Per item: whether shadow rays pass through it ([`Scene::passes_shadows`]).
+    see_through: Vec<bool>,
 }
 
 impl Quadrics {
-    /// The exact surfaces of every shape that has one.
-    pub(super) fn build(scene: &Scene) -> Self {
+    /// The exact surfaces of every shape `keep` takes that has one.
+    pub(super) fn build(scene: &Scene, keep: &dyn Fn(u32) -> bool) -> Self {
         // Each with its box, padded: a disk's box is flat, and a slab test may miss a
         // flat box.
         let (items, boxes): (Vec<(u32, Quadric)>, Vec<Aabb>) = scene
             .shapes
             .iter()
             .enumerate()
+            .filter(|(s, _)| keep(*s as u32))
             .filter_map(|(s, shape)| {
                 let q = shape.mesh.quadric?;
                 let (lo, hi) = q.bounds();
@@ -38,11 +41,12 @@ impl Quadrics {
             })
             .unzip();
         if items.is_empty() {
-            return Quadrics { items, bvh: None };
+            return Quadrics::empty();
         }
         let bvh = build_bvh2(&boxes, BvhBuildParams::medium_build(), &mut Default::default());
-        let items = bvh.primitive_indices.iter().map(|&i| items[i as usize]).collect();
+        let items: Vec<(u32, Quadric)> = bvh.primitive_indices.iter().map(|&i| items[i as usize]).collect();
         Quadrics {
+            see_through: items.iter().map(|(s, _)| scene.passes_shadows(*s)).collect(),
             items,
             bvh: Some(bvh),
         }
@@ -53,6 +57,7 @@ impl Quadrics {
         Quadrics {
             items: Vec::new(),
             bvh: None,
+            see_through: Vec::new(),
         }
     }
 
@@ -94,10 +99,13 @@ impl Quadrics {
         best
     }
 
-    /// Whether `ray` meets any exact surface.
+    /// Whether `ray` meets any exact surface that stops shadow rays.
     pub(super) fn any(&self, ray: &Ray) -> bool {
         let Some(bvh) = &self.bvh else { return false };
         !bvh.ray_traverse_miss(Self::bvh_ray(ray, ray.tmax), |r, i| {
+            if self.see_through[i] {
+                return f32::INFINITY;
+            }
             match self.items[i].1.intersect(ray.origin, ray.dir, ray.tmin, r.tmax) {
                 Some((t, _)) => t,
                 None => f32::INFINITY,

@@ -2,6 +2,7 @@
 //! and radiosity, and the perfect-mirror part, followed with reflection rays.
 //! Formulas follow Mitsuba 3 so that the same scene file gives the same picture.
 
+pub mod glass;
 pub mod microfacet;
 
 use glam::Vec3;
@@ -54,7 +55,9 @@ impl BsdfKind {
     pub fn diffuse_brdf(&self, cos_l: f32, cos_v: f32) -> Rgb {
         match self {
             BsdfKind::Diffuse { reflectance } => *reflectance * std::f32::consts::FRAC_1_PI,
-            BsdfKind::Conductor { .. } | BsdfKind::RoughConductor { .. } => Vec3::ZERO,
+            BsdfKind::Conductor { .. } | BsdfKind::RoughConductor { .. } | BsdfKind::Dielectric { .. } => {
+                Vec3::ZERO
+            }
             BsdfKind::Plastic {
                 diffuse_reflectance,
                 eta,
@@ -82,6 +85,20 @@ impl BsdfKind {
                 eta,
                 ..
             } => *specular_reflectance * fresnel_dielectric(cos_v, *eta),
+            // Seen from outside (the inside is `split`'s).
+            BsdfKind::Dielectric {
+                eta,
+                specular_reflectance,
+                thin,
+                ..
+            } => {
+                *specular_reflectance
+                    * if *thin {
+                        glass::thin_reflectance(cos_v, *eta)
+                    } else {
+                        fresnel_dielectric(cos_v, *eta)
+                    }
+            }
             BsdfKind::Blend { weight, a, b } => a.mirror(cos_v) * (1.0 - weight) + b.mirror(cos_v) * *weight,
         }
     }
@@ -92,7 +109,9 @@ impl BsdfKind {
     pub fn lambertian(&self) -> Option<Rgb> {
         match self {
             BsdfKind::Diffuse { reflectance } => Some(*reflectance * std::f32::consts::FRAC_1_PI),
-            BsdfKind::Conductor { .. } | BsdfKind::RoughConductor { .. } => Some(Vec3::ZERO),
+            BsdfKind::Conductor { .. } | BsdfKind::RoughConductor { .. } | BsdfKind::Dielectric { .. } => {
+                Some(Vec3::ZERO)
+            }
             BsdfKind::Plastic { .. } => None,
             BsdfKind::Blend { weight, a, b } => {
                 Some(a.lambertian()? * (1.0 - weight) + b.lambertian()? * *weight)
@@ -105,7 +124,9 @@ impl BsdfKind {
     pub fn has_diffuse(&self) -> bool {
         match self {
             BsdfKind::Diffuse { reflectance } => reflectance.max_element() > 0.0,
-            BsdfKind::Conductor { .. } | BsdfKind::RoughConductor { .. } => false,
+            BsdfKind::Conductor { .. } | BsdfKind::RoughConductor { .. } | BsdfKind::Dielectric { .. } => {
+                false
+            }
             BsdfKind::Plastic {
                 diffuse_reflectance, ..
             } => diffuse_reflectance.max_element() > 0.0,
@@ -121,7 +142,9 @@ impl BsdfKind {
     pub fn diffuse_albedo(&self) -> Rgb {
         match self {
             BsdfKind::Diffuse { reflectance } => *reflectance,
-            BsdfKind::Conductor { .. } | BsdfKind::RoughConductor { .. } => Vec3::ZERO,
+            BsdfKind::Conductor { .. } | BsdfKind::RoughConductor { .. } | BsdfKind::Dielectric { .. } => {
+                Vec3::ZERO
+            }
             BsdfKind::Blend { weight, a, b } => {
                 a.diffuse_albedo() * (1.0 - weight) + b.diffuse_albedo() * *weight
             }

@@ -175,6 +175,18 @@ impl Fingerprint {
                 }
                 self.vec3(lobe.scale);
             }
+            BsdfKind::Dielectric {
+                eta,
+                specular_reflectance,
+                specular_transmittance,
+                thin,
+            } => {
+                self.u8(6);
+                self.f32(*eta);
+                self.vec3(*specular_reflectance);
+                self.vec3(*specular_transmittance);
+                self.bool(*thin);
+            }
             BsdfKind::Blend { weight, a, b } => {
                 self.u8(3);
                 self.f32(*weight);

@@ -830,6 +830,7 @@ impl Solver<'_> {
             Some(l) => {
                 let point: Vec<Rgb> = per_vertex.iter().map(|x| x.0).collect();
                 let (out, rays) = project::project_all(
+                    self.scene,
                     &self.mesh,
                     self.accel,
                     l,

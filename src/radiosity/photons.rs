@@ -222,6 +222,40 @@ impl<'a> Tracer<'a> {
             if !sp.front && !bsdf.twosided {
                 return;
             }
+            let outward = if sp.front { sp.ns } else { -sp.ns };
+            if let Some(g) = bsdf.kind.split(-dir, outward) {
+                // Glass: reflected or transmitted by their shares of the power.
+                let (pr, pt) = (mean(g.reflect).min(1.0), mean(g.power).min(1.0));
+                let [u, _, _] = next();
+                let thin = bsdf.kind.shadow_transmittance(1.0).is_some();
+                if u < pr {
+                    power *= g.reflect / pr;
+                    dir = reflect(dir, sp.ns);
+                    if !reflects(dir, sp.ng) {
+                        return;
+                    }
+                } else if u < pr + pt {
+                    power *= g.power / pt;
+                    dir = g.dir;
+                    if dir.dot(sp.ng) >= 0.0 {
+                        return;
+                    }
+                    if thin {
+                        // Shadow rays cross thin panes too: the photon goes on as if
+                        // the pane were not there (what the shots deliver they keep).
+                        origin = sp.p;
+                        normal = sp.ng;
+                        continue;
+                    }
+                } else {
+                    return;
+                }
+                first = false;
+                source = None;
+                origin = sp.p;
+                normal = sp.ng;
+                continue;
+            }
             let rho = bsdf.kind.diffuse_albedo();
             let cos = (-dir).dot(sp.ns).max(0.0);
             let spec = bsdf.kind.mirror(cos);

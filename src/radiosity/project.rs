@@ -26,10 +26,10 @@ use rayon::prelude::*;
 
 use crate::accel::Accel;
 use crate::emitters::SampledLight;
-use crate::interaction::shadow_ray;
+use crate::interaction::{shadow_ray, transmittance};
 use crate::mesh::{point_in_polygon, RadiosityMesh};
 use crate::sampling::{derive, stratum, Stream};
-use crate::scene::{mean, Rgb};
+use crate::scene::{mean, Rgb, Scene};
 
 /// Stratified points on a piece whose vertices disagree.
 pub const POINTS: u32 = 16;
@@ -43,20 +43,21 @@ const MIXED: f32 = 0.5;
 const OFF: f32 = 0.02;
 
 /// The radiosity each vertex of patch `p` passes on from a point or spot `light`:
-/// `point` holds the reflected radiosity at every mesh vertex (reflectance `rho`
+/// `point` holds the reflected radiosity at every mesh vertex (reflectance `rho`, the patch's
 /// times irradiance); the result is the patch's vertices' weighted means over their
 /// surfaces, and the shadow rays cast. `None` where no piece of the patch is mixed
 /// (the point values stand).
 pub fn project(
+    scene: &Scene,
     mesh: &RadiosityMesh,
     accel: &dyn Accel,
     light: &SampledLight,
     p: u32,
-    rho: Rgb,
     point: &[Rgb],
     seed: u32,
 ) -> Option<(Vec<Rgb>, u64)> {
     let patch = &mesh.patches[p as usize];
+    let rho = patch.reflectance;
     let first = patch.first_vertex as usize;
     let count = patch.vertex_count as usize;
     if !point[first..first + count].iter().any(|c| c.max_element() > 0.0) {
@@ -73,11 +74,7 @@ pub fn project(
             return Vec3::ZERO;
         };
         rays += 1;
-        if accel.occluded(&shadow_ray(x, n, q, None)) {
-            Vec3::ZERO
-        } else {
-            rho * e
-        }
+        rho * e * transmittance(scene, accel, &shadow_ray(x, n, q, None))
     };
     let exact = patch.surface().is_some_and(|s| s.traced_exactly());
     for (i, e) in mesh.pieces(p).iter().enumerate() {
@@ -180,6 +177,7 @@ pub fn project(
 /// [`project`] over every patch that `receives`, in parallel: per patch, its
 /// projected values (or `None`), and the rays cast in all.
 pub fn project_all(
+    scene: &Scene,
     mesh: &RadiosityMesh,
     accel: &dyn Accel,
     light: &SampledLight,
@@ -193,15 +191,7 @@ pub fn project_all(
             if !receives(p) {
                 return None;
             }
-            project(
-                mesh,
-                accel,
-                light,
-                p as u32,
-                mesh.patches[p].reflectance,
-                point,
-                seed,
-            )
+            project(scene, mesh, accel, light, p as u32, point, seed)
         })
         .collect();
     let rays = out.iter().flatten().map(|x| x.1).sum();

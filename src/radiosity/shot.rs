@@ -8,7 +8,7 @@ use glam::Vec3;
 use super::{transfer, AtVertex, Solver};
 use crate::emitters::SampledLight;
 use crate::geometry::point_polygon_form_factor;
-use crate::interaction::{ray_epsilon, shadow_ray};
+use crate::interaction::{ray_epsilon, shadow_ray, transmittance};
 use crate::mesh::{point_in_polygon, MeshVertex};
 use crate::sampling::stratum;
 use crate::scene::{mean, Rgb};
@@ -259,28 +259,34 @@ impl Solver<'_> {
         // Rays through of `per` to cell `k` (one at a point: a light in space, or a
         // curved cell's point), with the one shadow-ray rule of both passes: to a light
         // point in space, or to a point of the shooting cell's surface.
-        let through = |k: usize, per: u32, salt: u32| -> (u32, u32) {
+        // Returns the rays that reached the cell, the light they bring (their thin
+        // panes' transmittances summed: the hits' count without panes) and `per`.
+        let through = |k: usize, per: u32, salt: u32| -> (u32, f32, u32) {
             let sp = &points[k];
             let per = if sp.flat { per } else { 1 };
             let normal = if light.is_some() { None } else { Some(sp.n) };
-            let hits = (0..per)
-                .filter(|&j| {
-                    let target = if sp.flat {
-                        let u = stratum(seed, (k as u32) << 9 | salt << 7, j, per);
-                        point_in_polygon(&sp.poly[..sp.len as usize], u)
-                    } else {
-                        sp.p
-                    };
-                    !self.accel.occluded(&shadow_ray(x, n, target, normal))
-                })
-                .count() as u32;
-            (hits, per)
+            let (mut hits, mut light) = (0, 0.0);
+            for j in 0..per {
+                let target = if sp.flat {
+                    let u = stratum(seed, (k as u32) << 9 | salt << 7, j, per);
+                    point_in_polygon(&sp.poly[..sp.len as usize], u)
+                } else {
+                    sp.p
+                };
+                let t = transmittance(self.scene, self.accel, &shadow_ray(x, n, target, normal));
+                if t > 0.0 {
+                    hits += 1;
+                    light += t;
+                }
+            }
+            (hits, light, per)
         };
         let (mut occ, mut unocc, mut rays) = (Vec3::ZERO, Vec3::ZERO, 0u64);
         let (mut seen, mut hidden) = (false, false);
         // The cells that reach the vertex: each one's index, what it brings, and the
-        // visibility its first rays found.
-        let mut reached: Vec<(usize, Vec3, f32)> = Vec::with_capacity(points.len());
+        // visibility its first rays found (the share of them that reached it, and the
+        // share of its light they bring: less through thin glass).
+        let mut reached: Vec<(usize, Vec3, f32, f32)> = Vec::with_capacity(points.len());
         let per = first_rays
             .div_ceil(points.len().max(1) as u32)
             .next_power_of_two();
@@ -320,18 +326,18 @@ impl Solver<'_> {
                 }
             };
             unocc += e;
-            let (hits, per) = through(k, per, 0);
+            let (hits, light, per) = through(k, per, 0);
             rays += u64::from(per);
             seen |= hits > 0;
             hidden |= hits < per;
-            let vis = hits as f32 / per as f32;
-            occ += e * vis;
-            reached.push((k, e, vis));
+            let (vis, val) = (hits as f32 / per as f32, light / per as f32);
+            occ += e * val;
+            reached.push((k, e, vis, val));
             if let Some(l) = links.as_deref_mut() {
                 l.push(transfer::Link {
                     cell: base + k as u32,
                     f,
-                    vis,
+                    vis: val,
                     quarters: quarter_fs,
                 });
             }
@@ -350,20 +356,22 @@ impl Solver<'_> {
                     .map(|s| reached[s].2)
             };
             // Samples the cell of `reached[i]` again with `per` rays of ray set
-            // `salt`: its visibility replaces `old` in the sum and in the link.
+            // `salt`: the light it brings replaces `old` in the sum and in the link.
+            // Returns the share of rays that reached it, the light's and the rays.
             let mut again = |i: usize, old: f32, per: u32, salt: u32, occ: &mut Vec3| {
-                let (hits, per) = through(reached[i].0, per, salt);
-                let now = hits as f32 / per as f32;
+                let (hits, light, per) = through(reached[i].0, per, salt);
+                let now = light / per as f32;
                 *occ += reached[i].1 * (now - old);
                 if let Some(l) = links.as_deref_mut() {
                     l[i].vis = now;
                 }
-                (now, u64::from(per))
+                (hits as f32 / per as f32, now, u64::from(per))
             };
             let least = mean(unocc) * EDGE_SHARE;
-            // The edge cells: index in `reached`, visibility after their edge rays.
-            let mut edges: Vec<(usize, f32)> = Vec::new();
-            for (i, &(k, e, vis)) in reached.iter().enumerate() {
+            // The edge cells: index in `reached`, the share of rays that reached it and
+            // its light's after their edge rays.
+            let mut edges: Vec<(usize, f32, f32)> = Vec::new();
+            for (i, &(k, e, vis, val)) in reached.iter().enumerate() {
                 let edge = points[k].flat
                     && mean(e) > least
                     && touching
@@ -371,9 +379,9 @@ impl Solver<'_> {
                         .iter()
                         .any(|&j| first_vis(j).is_some_and(|w| w != vis));
                 if edge {
-                    let (now, cast) = again(i, vis, EDGE_RAYS, 1, &mut occ);
+                    let (now, light, cast) = again(i, val, EDGE_RAYS, 1, &mut occ);
                     rays += cast;
-                    edges.push((i, now));
+                    edges.push((i, now, light));
                 }
             }
             // The variance the edge cells' rays leave (a fraction p of n rays hit: p (1 -
@@ -381,24 +389,24 @@ impl Solver<'_> {
             // the partly hidden edge cells are sampled again, more densely.
             let var: f32 = edges
                 .iter()
-                .map(|&(i, p)| mean(reached[i].1).powi(2) * p * (1.0 - p) / EDGE_RAYS as f32)
+                .map(|&(i, p, _)| mean(reached[i].1).powi(2) * p * (1.0 - p) / EDGE_RAYS as f32)
                 .sum();
             if var > (EDGE_ERROR * mean(occ)).powi(2) {
-                for &(i, p) in edges.iter().filter(|e| e.1 > 0.0 && e.1 < 1.0) {
-                    rays += again(i, p, EDGE_RAYS_MORE, 2, &mut occ).1;
+                for &(i, _, light) in edges.iter().filter(|e| e.1 > 0.0 && e.1 < 1.0) {
+                    rays += again(i, light, EDGE_RAYS_MORE, 2, &mut occ).2;
                 }
             }
             return (occ, unocc, rays);
         }
         let per = REFINE_RAYS.div_ceil(reached.len() as u32).next_power_of_two();
         let mut refined = Vec3::ZERO;
-        for (i, &(k, e, _)) in reached.iter().enumerate() {
-            let (hits, per) = through(k, per, 1);
+        for (i, &(k, e, _, _)) in reached.iter().enumerate() {
+            let (_, light, per) = through(k, per, 1);
             rays += u64::from(per);
-            let vis = hits as f32 / per as f32;
-            refined += e * vis;
+            let val = light / per as f32;
+            refined += e * val;
             if let Some(l) = links.as_deref_mut() {
-                l[i].vis = vis;
+                l[i].vis = val;
             }
         }
         (refined, unocc, rays)

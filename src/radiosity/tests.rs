@@ -919,3 +919,117 @@ fn a_glossy_floor_passes_its_light_on_in_pass_1() {
     let black = solve(&s, &Bvh::build(&s), &st, &Silent).unwrap();
     assert!(absorbed_power(&black, rho) < 0.8 * emitted);
 }
+
+/// A thin pane of glass (`thindielectric`) between a point light and a floor dims
+/// the floor behind it by the pane's transmittance at each ray's angle, and casts
+/// no other shadow; beside it the floor gets the closed form.
+#[test]
+fn a_thin_pane_dims_the_floor_behind_it_by_its_transmittance() {
+    use crate::bsdf::glass::thin_reflectance;
+    use crate::scene::BsdfKind;
+    let mut plane = crate::testutil::split_square(4.0, 0.0, 40);
+    for p in &mut plane.positions {
+        *p -= Vec3::new(2.0, 2.0, 0.0);
+    }
+    let (h, i0, rho) = (1.5f32, 2.0f32, 0.6f32);
+    let lp = Vec3::new(0.3, -0.2, h);
+    let light = Light::Point {
+        position: lp,
+        intensity: Vec3::splat(i0),
+    };
+    // The pane: x in [-1, 0.5], y in [-1, 1], at height 0.8.
+    let pane = crate::testutil::square(-1.0, 0.5, -1.0, 1.0, 0.8, false);
+    let glass = BsdfKind::Dielectric {
+        eta: 1.5,
+        specular_reflectance: Vec3::ONE,
+        specular_transmittance: Vec3::ONE,
+        thin: true,
+    };
+    let floor = BsdfKind::Diffuse {
+        reflectance: Vec3::splat(rho),
+    };
+    let s = crate::testutil::scene_with(vec![(plane, floor), (pane, glass)], vec![light], &[]);
+    let sol = solve(&s, &Bvh::build(&s), &settings(0.5, 4, 0), &Silent).unwrap();
+    let e = &sol.lists[0][0];
+    let (mut dimmed, mut full) = (0, 0);
+    for (v, b) in sol
+        .mesh
+        .vertices
+        .iter()
+        .zip(&e.occluded)
+        .filter(|(v, _)| v.q.z == 0.0)
+    {
+        let d = lp - v.q;
+        let r = d.length();
+        let closed = rho * i0 * h / (r * r * r);
+        // Where the ray to the light crosses the pane's plane.
+        let c = v.q + d * (0.8 / h);
+        let inside = c.x > -1.0 && c.x < 0.5 && c.y > -1.0 && c.y < 1.0;
+        let margin = (c.x + 1.0)
+            .abs()
+            .min((c.x - 0.5).abs())
+            .min((c.y.abs() - 1.0).abs());
+        if margin < 0.15 {
+            continue; // the vertex's pieces straddle the pane's edge
+        }
+        let expect = if inside {
+            dimmed += 1;
+            closed * (1.0 - thin_reflectance(h / r, 1.5))
+        } else {
+            full += 1;
+            closed
+        };
+        assert!(
+            (b.x - expect).abs() < 2e-3 * closed,
+            "{:?}: {} vs {expect}",
+            v.q,
+            b.x
+        );
+    }
+    assert!(dimmed >= 30 && full >= 10, "{dimmed} {full}");
+}
+
+/// A closed box split by a thin pane of glass (the light on one side): the walls on
+/// both sides absorb all the light emitted (the pane neither absorbs nor loses any),
+/// through the shots (which see through the pane), the light's photons aimed at it
+/// (its reflection) and the photons of the rest.
+#[test]
+fn a_box_split_by_a_thin_pane_absorbs_all_the_light() {
+    use crate::scene::BsdfKind;
+    let rho = 0.6;
+    let mut s = lit_box(rho);
+    let b = s.bsdfs.len() as u32;
+    s.bsdfs.push(crate::scene::Bsdf {
+        name: "pane".into(),
+        kind: BsdfKind::Dielectric {
+            eta: 1.5,
+            specular_reflectance: Vec3::ONE,
+            specular_transmittance: Vec3::ONE,
+            thin: true,
+        },
+        twosided: true,
+        textures: Vec::new(),
+    });
+    // A pane across the box at x = 1.2 (the light is at x = 0.7).
+    s.shapes.push(crate::scene::Shape {
+        name: "pane".into(),
+        mesh: quad([
+            v(1.2, 0.0, 0.0),
+            v(1.2, 1.0, 0.0),
+            v(1.2, 1.0, 1.5),
+            v(1.2, 0.0, 1.5),
+        ]),
+        bsdf: b,
+        emitter: None,
+    });
+    let mut st = settings(0.1, 16, 20);
+    st.tolerance = 0.02;
+    st.photons = 64;
+    let a = solve(&s, &Bvh::build(&s), &st, &Silent).unwrap();
+    let emitted = a.stats.emitted_power;
+    let absorbed = absorbed_power(&a, rho);
+    assert!(
+        absorbed < emitted * 1.03 && absorbed > emitted * 0.97,
+        "{absorbed} vs {emitted}"
+    );
+}

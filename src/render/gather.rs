@@ -53,7 +53,7 @@ use super::counters::Counters;
 use crate::accel::Accel;
 use crate::camera::Camera;
 use crate::emitters::{group_point, SampledLight};
-use crate::interaction::{reflect, SurfacePoint};
+use crate::interaction::{reflect, transmittance, SurfacePoint};
 use crate::radiosity::Solution;
 use crate::radiosity::SourceId;
 use crate::sampling::{derive, pixel_seed, uniform2, uniform3, Stream};
@@ -521,6 +521,19 @@ impl Gather {
                     e += through * radiosity;
                 }
             }
+            if bsdf.kind.is_glass() {
+                // Glass: on through one of its two rays, drawn by their weights.
+                let s = derive(derive(seed, Stream::Sample(k)), Stream::Sample(bounce));
+                let Some((next, weight, _)) =
+                    super::glass::rays(&bsdf.kind, &y, ray.dir, super::glass::GLASS_SPLIT_DEPTH, s).pop()
+                else {
+                    break;
+                };
+                counters.gather_rays += 1;
+                through *= weight;
+                ray = next;
+                continue;
+            }
             let mirror = bsdf.kind.mirror((-ray.dir).dot(y.ns));
             let (dir, weight) = match bsdf.kind.glossy() {
                 // A glossy metal: on along one direction drawn from its lobe.
@@ -576,9 +589,7 @@ impl Gather {
                 continue;
             }
             counters.gather_rays += 1;
-            if !ctx.accel.occluded(&y.shadow_ray(s.point, s.normal)) {
-                e += s.value * cos;
-            }
+            e += s.value * (cos * transmittance(ctx.scene, ctx.accel, &y.shadow_ray(s.point, s.normal)));
         }
         e
     }

@@ -11,6 +11,7 @@ pub mod counters;
 pub mod debug;
 pub mod film;
 pub mod gather;
+pub mod glass;
 pub mod shading;
 pub mod sib;
 

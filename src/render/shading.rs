@@ -4,12 +4,13 @@ use glam::Vec3;
 
 use super::counters::Counters;
 use super::gather::{self, Gather};
+use super::glass;
 use super::sib::{self, SibQuery};
 use super::Settings;
 use crate::accel::{Accel, Ray};
 use crate::bsdf::microfacet::Frame;
 use crate::emitters::{group_point, SampledLight};
-use crate::interaction::{reflect, SurfacePoint};
+use crate::interaction::{pane_transmittance, reflect, transmittance, SurfacePoint};
 use crate::mesh::RadiosityMesh;
 use crate::sampling::{derive, stratum, Stream};
 use crate::scene::{Bsdf, BsdfKind, Glossy, Rgb, Scene};
@@ -153,6 +154,15 @@ impl<'a> Tracer<'a> {
             }
         }
         let (bsdf, kind) = sp.material(self.scene);
+        if kind.is_glass() {
+            if depth < self.max_depth {
+                for (ray, w, s) in glass::rays(&kind, &sp, ray.dir, depth, seed) {
+                    counters.reflection_rays += 1;
+                    l += w * self.trace(&ray, depth + 1, s, counters, None, true);
+                }
+            }
+            return l;
+        }
         if !sp.front && !bsdf.twosided {
             return l; // the back of a one-sided material is black, as in Mitsuba
         }
@@ -331,8 +341,9 @@ impl<'a> Tracer<'a> {
                     _ => 1.0,
                 };
                 cast += 1;
-                if !self.accel.occluded(&sp.shadow_ray(s.point, s.normal)) {
-                    l += f * s.value * (sp.ns.dot(s.dir) * weight / r as f32);
+                let t = transmittance(self.scene, self.accel, &sp.shadow_ray(s.point, s.normal));
+                if t > 0.0 {
+                    l += f * s.value * (sp.ns.dot(s.dir) * weight * t / r as f32);
                 }
             }
             counters.count_source(i, cast, 0);
@@ -371,6 +382,16 @@ impl<'a> Tracer<'a> {
             _ => None,
         };
         let (bsdf, kind) = sp.material(self.scene);
+        if kind.is_glass() {
+            let mut l = Vec3::ZERO;
+            if depth < self.max_depth {
+                for (ray, w, s) in glass::rays(&kind, &sp, ray.dir, depth, seed) {
+                    counters.reflection_rays += 1;
+                    l += w * self.reflected(&ray, depth + 1, s, counters).0;
+                }
+            }
+            return (l, emitter);
+        }
         let wo = -ray.dir;
         let cos_v = sp.ns.dot(wo);
         if (!sp.front && !bsdf.twosided) || cos_v <= 0.0 {
@@ -437,8 +458,10 @@ impl<'a> Tracer<'a> {
             if let Some(lit) = sib::agree(q.neighbours, pick.source, 0, n) {
                 let value = match (lit, closed) {
                     (false, _) => Some(Vec3::ZERO),
-                    (true, Some(c)) => Some(c),
-                    (true, None) => None,
+                    // Through thin glass the groups' light points are dimmed each by
+                    // its panes: sampled below.
+                    (true, Some(c)) if self.accel.panes().is_none() => Some(c),
+                    (true, _) => None,
                 };
                 if let Some(value) = value {
                     sib::set(q.record, pick.source, 0, n, lit);
@@ -479,7 +502,7 @@ impl<'a> Tracer<'a> {
             let f = h.kind.diffuse_brdf(cos_l, h.cos_v) * s.value * (cos_l * share);
             unoccluded += f;
             if visible {
-                acc += f;
+                acc += f * pane_transmittance(self.scene, self.accel, &sp.shadow_ray(s.point, s.normal));
             }
         }
         counters.count_source(li, cast, saved);

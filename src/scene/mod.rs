@@ -53,6 +53,20 @@ pub enum BsdfKind {
         /// The lobe.
         lobe: Glossy,
     },
+    /// Glass: a smooth interface that reflects and refracts (`dielectric`), or a thin
+    /// pane that reflects and lets light through unbent (`thindielectric`), as in
+    /// Mitsuba 3.
+    Dielectric {
+        /// Relative index of refraction `int_ior / ext_ior` (inside over outside).
+        eta: f32,
+        /// Scale of the reflection (`specular_reflectance`).
+        specular_reflectance: Rgb,
+        /// Scale of the transmission (`specular_transmittance`).
+        specular_transmittance: Rgb,
+        /// A thin pane (`thindielectric`): light passes straight through, with the
+        /// reflections between its two faces summed.
+        thin: bool,
+    },
     /// `(1 - weight) * a + weight * b` (`blendbsdf`).
     Blend {
         /// Weight of `b`.
@@ -178,6 +192,9 @@ impl Bsdf {
                 (BsdfKind::Conductor { specular_reflectance }, TexField::Specular)
                 | (
                     BsdfKind::Plastic {
+                        specular_reflectance, ..
+                    }
+                    | BsdfKind::Dielectric {
                         specular_reflectance, ..
                     },
                     TexField::Specular,
@@ -327,6 +344,15 @@ impl Sensor {
 }
 
 impl Scene {
+    /// Whether shadow rays pass through shape `s` (a thin pane of glass,
+    /// `thindielectric`: light crosses it unbent, so its shadow is only a dimming).
+    pub fn passes_shadows(&self, s: u32) -> bool {
+        self.shapes
+            .get(s as usize)
+            .and_then(|shape| self.bsdfs.get(shape.bsdf as usize))
+            .is_some_and(|b| matches!(b.kind, BsdfKind::Dielectric { thin: true, .. }))
+    }
+
     /// A name for light `i` in tables and messages: its `id` in the scene file, the
     /// name of its shape for an area light, else its kind and index.
     pub fn light_name(&self, i: usize) -> String {

@@ -1,6 +1,6 @@
-//! BSDF plugins: `diffuse`, `conductor`, `plastic` (rough variants become their
-//! smooth counterparts), `twosided`, `blendbsdf`; the unsupported ones become
-//! diffuse or their nested bsdf.
+//! BSDF plugins: `diffuse`, `conductor`, `roughconductor`, `plastic`, `dielectric`,
+//! `thindielectric` (the other rough variants become their smooth counterparts),
+//! `twosided`, `blendbsdf`; the unsupported ones become diffuse or their nested bsdf.
 
 use glam::Vec3;
 use roxmltree::Node;
@@ -71,6 +71,27 @@ impl Loader {
                     nonlinear,
                 };
                 (kind, false)
+            }
+            "dielectric" | "thindielectric" | "roughdielectric" => {
+                if ty == "roughdielectric" {
+                    self.rough(s, c, &ty, "dielectric");
+                    for p in ["alpha", "alpha_u", "alpha_v", "distribution", "sample_visible"] {
+                        obj.get(p);
+                    }
+                }
+                let int_ior = ior(&obj, "int_ior", 1.5046)?;
+                let ext_ior = ior(&obj, "ext_ior", 1.000277)?;
+                let specular_reflectance = obj.reflectance("specular_reflectance", 1.0)?;
+                let specular_transmittance = obj.reflectance("specular_transmittance", 1.0)?;
+                slot("specular_reflectance", TexField::Specular, Vec3::ONE);
+                let kind = BsdfKind::Dielectric {
+                    eta: int_ior / ext_ior,
+                    specular_reflectance,
+                    specular_transmittance,
+                    thin: ty == "thindielectric",
+                };
+                // Glass has two sides by nature.
+                (kind, true)
             }
             "twosided" => {
                 let inner = self.nested_bsdfs(&obj)?;

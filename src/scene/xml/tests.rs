@@ -561,12 +561,12 @@ fn rough_and_unsupported_bsdfs_warn() {
     let l = ok(&[
         r#"<shape type="cube"><bsdf type="roughplastic"><float name="alpha" value="0.1"/></bsdf></shape>"#,
         r#"<shape type="cube"><bsdf type="roughconductor"/></shape>"#,
-        r#"<shape type="cube"><bsdf type="dielectric"/></shape>"#,
+        r#"<shape type="cube"><bsdf type="measured"/></shape>"#,
         r#"<shape type="cube"><bsdf type="conductor"><string name="material" value="Au"/></bsdf></shape>"#,
     ]);
     assert!(has_warning(&l, 3, "smooth 'plastic'"));
     assert!(!l.warnings.iter().any(|w| w.contains(":4:")), "{:?}", l.warnings);
-    assert!(has_warning(&l, 5, "'dielectric'"));
+    assert!(has_warning(&l, 5, "'measured'"));
     assert!(has_warning(&l, 6, "'Au'"));
     assert!(!l.warnings.iter().any(|w| w.contains("'alpha'")));
     let kinds: Vec<&BsdfKind> = l.scene.bsdfs.iter().map(|b| &b.kind).collect();
@@ -583,6 +583,54 @@ fn rough_and_unsupported_bsdfs_warn() {
         panic!()
     };
     assert!(specular_reflectance.x > specular_reflectance.z);
+}
+
+#[test]
+fn glass_reads_named_indices_as_mitsuba_and_bad_ones_fail_with_their_line() {
+    let l = ok(&[
+        r#"<bsdf type="thindielectric" id="pane"><string name="int_ior" value="bk7"/><string name="ext_ior" value="air"/></bsdf>"#,
+        r#"<bsdf type="dielectric" id="water"><float name="int_ior" value="1.33"/><rgb name="specular_transmittance" value="0.9, 0.95, 1"/></bsdf>"#,
+        r#"<bsdf type="dielectric" id="default"/>"#,
+        r#"<shape type="cube"><ref id="pane"/></shape>"#,
+        r#"<shape type="cube"><ref id="water"/></shape>"#,
+        r#"<shape type="cube"><ref id="default"/></shape>"#,
+    ]);
+    assert!(!l.warnings.iter().any(|w| w.contains("bsdf")), "{:?}", l.warnings);
+    let kinds: Vec<&BsdfKind> = l.scene.bsdfs.iter().map(|b| &b.kind).collect();
+    let glass = |k: &BsdfKind| match *k {
+        BsdfKind::Dielectric {
+            eta,
+            specular_transmittance,
+            thin,
+            ..
+        } => (eta, specular_transmittance, thin),
+        _ => panic!("{k:?}"),
+    };
+    // Mitsuba's table: bk7 1.5046, air 1.000277; its defaults are those two.
+    let (eta, _, thin) = glass(kinds[0]);
+    assert!((eta - 1.5046 / 1.000277).abs() < 1e-6 && thin);
+    let (eta, t, thin) = glass(kinds[1]);
+    assert!((eta - 1.33 / 1.000277).abs() < 1e-6 && !thin);
+    assert_eq!(t, Vec3::new(0.9, 0.95, 1.0));
+    assert!((glass(kinds[2]).0 - 1.5046 / 1.000277).abs() < 1e-6);
+    assert!(l.scene.bsdfs.iter().all(|b| b.twosided));
+    // Shadow rays pass the thin pane only.
+    assert!(l.scene.passes_shadows(0) && !l.scene.passes_shadows(1));
+
+    let e = err(
+        &[
+            r#"<shape type="cube">"#,
+            r#"<bsdf type="dielectric"><string name="int_ior" value="glas"/></bsdf>"#,
+            "</shape>",
+        ],
+        4,
+    );
+    assert!(e.contains("int_ior") && e.contains("'glas'"), "{e}");
+    let e = err(
+        &[r#"<bsdf type="thindielectric" id="x"><float name="ext_ior" value="-1"/></bsdf>"#],
+        3,
+    );
+    assert!(e.contains("ext_ior"), "{e}");
 }
 
 // ------------------------------------------------------------- shapes

@@ -1,0 +1,201 @@
+//! Glass (Mitsuba 3's `dielectric` and `thindielectric`): a smooth interface that
+//! splits a ray into its mirror reflection and its transmission, weighted by the
+//! Fresnel reflectance. Thick glass bends the transmitted ray by Snell's law and
+//! scales radiance by the squared ratio of the indices (radiance mode); a thin pane
+//! lets it through unbent, with the light reflected back and forth between its two
+//! faces summed into the reflection.
+
+use glam::Vec3;
+
+use super::fresnel_dielectric;
+use crate::scene::{BsdfKind, Rgb};
+
+/// What glass does to a ray that meets it: the weights of its reflection and of its
+/// transmission, and the transmission's direction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Split {
+    /// Weight of the mirror reflection (about the normal on the ray's side).
+    pub reflect: Rgb,
+    /// Weight of the transmitted ray's radiance (zero at total internal reflection).
+    pub transmit: Rgb,
+    /// The share of power transmitted (`transmit` without the radiance's scaling by
+    /// the squared index ratio: what a photon carries on).
+    pub power: Rgb,
+    /// Direction of the transmitted ray (unit).
+    pub dir: Vec3,
+}
+
+/// The direction refracted from `wi` (unit, pointing away from the surface on the
+/// side of `n`, unit) into the other side, with relative index `eta` = index of the
+/// far side over that of `wi`'s side; `None` at total internal reflection.
+pub fn refract(wi: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
+    let cos_i = wi.dot(n);
+    let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return None;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    Some((-wi / eta + n * (cos_i / eta - cos_t)).normalize())
+}
+
+/// The reflectance of a thin pane of relative index `eta` at cosine `cos`: one face's
+/// Fresnel reflectance `r` plus the light reflected between the faces, `2r / (1 + r)`
+/// (Mitsuba's `thindielectric`, no absorption inside).
+pub fn thin_reflectance(cos: f32, eta: f32) -> f32 {
+    let r = fresnel_dielectric(cos, eta);
+    if r < 1.0 {
+        2.0 * r / (1.0 + r)
+    } else {
+        1.0
+    }
+}
+
+impl BsdfKind {
+    /// Whether the material is glass (reflects and transmits).
+    pub fn is_glass(&self) -> bool {
+        matches!(self, BsdfKind::Dielectric { .. })
+    }
+
+    /// Whether shadow rays pass through the material (a thin pane), and with what
+    /// share of the light at cosine `cos` to its normal; `None` if it stops them.
+    pub fn shadow_transmittance(&self, cos: f32) -> Option<f32> {
+        match self {
+            BsdfKind::Dielectric {
+                eta,
+                specular_transmittance,
+                thin: true,
+                ..
+            } => {
+                Some((1.0 - thin_reflectance(cos.abs(), *eta)) * crate::scene::mean(*specular_transmittance))
+            }
+            _ => None,
+        }
+    }
+
+    /// What glass does to a ray arriving along `-wo` at a surface of shading normal
+    /// `ns` (unit; `wo` on either side): `None` if the material is not glass.
+    pub fn split(&self, wo: Vec3, ns: Vec3) -> Option<Split> {
+        let BsdfKind::Dielectric {
+            eta,
+            specular_reflectance,
+            specular_transmittance,
+            thin,
+        } = self
+        else {
+            return None;
+        };
+        let cos = wo.dot(ns);
+        // The normal on the ray's side, and the index across (far over near).
+        let (n, eta_t) = if cos >= 0.0 { (ns, *eta) } else { (-ns, 1.0 / eta) };
+        let cos = cos.abs();
+        if *thin {
+            let r = thin_reflectance(cos, *eta);
+            let transmit = *specular_transmittance * (1.0 - r);
+            return Some(Split {
+                reflect: *specular_reflectance * r,
+                transmit,
+                power: transmit,
+                dir: -wo,
+            });
+        }
+        let r = fresnel_dielectric(cos, eta_t);
+        let (power, dir) = match refract(wo, n, eta_t) {
+            Some(d) if r < 1.0 => (*specular_transmittance * (1.0 - r), d),
+            _ => (Vec3::ZERO, -wo),
+        };
+        Some(Split {
+            reflect: *specular_reflectance * r,
+            // Radiance across the interface scales by the inverse squared index ratio.
+            transmit: power / (eta_t * eta_t),
+            power,
+            dir,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn glass(thin: bool) -> BsdfKind {
+        BsdfKind::Dielectric {
+            eta: 1.5,
+            specular_reflectance: Vec3::ONE,
+            specular_transmittance: Vec3::ONE,
+            thin,
+        }
+    }
+
+    #[test]
+    fn refraction_obeys_snells_law() {
+        let n = Vec3::Z;
+        for deg in [0.0f32, 20.0, 45.0, 80.0] {
+            let th = deg.to_radians();
+            let wi = Vec3::new(th.sin(), 0.0, th.cos());
+            let t = refract(wi, n, 1.5).unwrap();
+            // Below the surface, on the far side of the normal from wi's tangent part.
+            assert!(t.z < 0.0 && t.x <= 0.0);
+            let sin_t = (t.x * t.x + t.y * t.y).sqrt();
+            assert!(
+                (th.sin() - 1.5 * sin_t).abs() < 1e-5,
+                "{deg}: {} vs {}",
+                th.sin(),
+                1.5 * sin_t
+            );
+        }
+        // From inside glass (eta 1/1.5) beyond the critical angle asin(1/1.5) = 41.8 deg:
+        // total internal reflection.
+        let th = 45f32.to_radians();
+        assert!(refract(Vec3::new(th.sin(), 0.0, th.cos()), n, 1.0 / 1.5).is_none());
+        let th = 40f32.to_radians();
+        assert!(refract(Vec3::new(th.sin(), 0.0, th.cos()), n, 1.0 / 1.5).is_some());
+    }
+
+    #[test]
+    fn glass_splits_by_fresnel_and_scales_radiance_across() {
+        // Normal incidence from outside: r = ((1.5 - 1) / 2.5)^2 = 0.04; the transmitted
+        // ray goes straight in, its radiance weight (1 - 0.04) / 1.5^2.
+        let s = glass(false).split(Vec3::Z, Vec3::Z).unwrap();
+        assert!((s.reflect.x - 0.04).abs() < 1e-6);
+        assert!((s.transmit.x - 0.96 / 2.25).abs() < 1e-6);
+        assert!((s.power.x - 0.96).abs() < 1e-6);
+        assert!((s.dir - -Vec3::Z).length() < 1e-6);
+        // The same from inside (normal facing out): same r, weight (1 - r) * 1.5^2.
+        let s = glass(false).split(-Vec3::Z, Vec3::Z).unwrap();
+        assert!((s.reflect.x - 0.04).abs() < 1e-6);
+        assert!((s.transmit.x - 0.96 * 2.25).abs() < 1e-5);
+        assert!((s.dir - Vec3::Z).length() < 1e-6);
+        // From inside past the critical angle: all reflected.
+        let th = 60f32.to_radians();
+        let s = glass(false)
+            .split(Vec3::new(th.sin(), 0.0, -th.cos()), Vec3::Z)
+            .unwrap();
+        assert_eq!((s.reflect.x, s.transmit.x), (1.0, 0.0));
+        // 60 degrees from outside: Fresnel's s and p terms by hand.
+        let (ci, ct) = (0.5f32, (1.0f32 - 0.75 / 2.25).sqrt());
+        let rs = ((ci - 1.5 * ct) / (ci + 1.5 * ct)).powi(2);
+        let rp = ((1.5 * ci - ct) / (1.5 * ci + ct)).powi(2);
+        let s = glass(false)
+            .split(Vec3::new(th.sin(), 0.0, th.cos()), Vec3::Z)
+            .unwrap();
+        assert!((s.reflect.x - 0.5 * (rs + rp)).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_thin_pane_sums_its_inner_reflections_and_does_not_bend() {
+        // r = 0.04 a face: 0.04 + 0.96^2 0.04 (1 + 0.04^2 + ...) = 2 r / (1 + r).
+        let series: f32 = 0.04 + 0.96 * 0.96 * 0.04 / (1.0 - 0.04 * 0.04);
+        let wo = Vec3::new(0.3, 0.1, 0.9).normalize();
+        let s = glass(true).split(wo, Vec3::Z).unwrap();
+        let r = fresnel_dielectric(wo.z, 1.5);
+        let series_at = r + (1.0 - r) * (1.0 - r) * r / (1.0 - r * r);
+        assert!((s.reflect.x - series_at).abs() < 1e-6);
+        assert!((s.reflect.x + s.transmit.x - 1.0).abs() < 1e-6);
+        assert!((s.dir + wo).length() < 1e-6);
+        assert!((thin_reflectance(1.0, 1.5) - series).abs() < 1e-6);
+        // Shadow rays see the same transmittance from either side; thick glass stops them.
+        let t = glass(true).shadow_transmittance(-0.7).unwrap();
+        assert!((t - (1.0 - thin_reflectance(0.7, 1.5))).abs() < 1e-6);
+        assert_eq!(glass(false).shadow_transmittance(1.0), None);
+    }
+}
