@@ -434,7 +434,12 @@ const CURVED_SPREAD: f32 = 0.2;
 
 /// Whether a source is a point (point or spot light: one ray, no solid angle).
 fn is_point(scene: &Scene, s: SourceId) -> bool {
-    matches!(s, SourceId::Light(l) if !matches!(scene.lights[l as usize], Light::Area { .. }))
+    matches!(s, SourceId::Light(l) if !matches!(scene.lights[l as usize], Light::Area { .. } | Light::Environment { .. }))
+}
+
+/// Whether a source is the sky (seen under the whole hemisphere).
+fn is_sky(scene: &Scene, s: SourceId) -> bool {
+    matches!(s, SourceId::Light(l) if matches!(scene.lights[l as usize], Light::Environment { .. }))
 }
 
 /// What the criteria are judged against: the scene, the solution with its total
@@ -530,7 +535,13 @@ pub fn judge(j: &Judge, p: u32, entry: &ListEntry, tris: &Subtense, points: &Fal
             area += v.area;
             max = max.max(w);
         }
-        c.solid_angle_sr = if area > 0.0 { sum / area } else { max };
+        c.solid_angle_sr = if is_sky(scene, entry.source) {
+            2.0 * std::f32::consts::PI
+        } else if area > 0.0 {
+            sum / area
+        } else {
+            max
+        };
         c.solid_angle = c.solid_angle_sr <= settings.max_solid_angle;
         let rays =
             (c.solid_angle_sr / (2.0 * std::f32::consts::PI) * settings.hemisphere_rays as f32).round();

@@ -53,6 +53,17 @@ pub(super) fn cmd_info(a: InfoArgs) -> Result<()> {
                 scene.shapes[*shape as usize].name,
                 scene.shapes[*shape as usize].mesh.area()
             ),
+            Light::Directional { direction, irradiance } => {
+                say!("  [{i}] directional towards {direction:.3} irradiance {irradiance:.3}")
+            }
+            Light::Environment { radiance, texture, .. } => match texture {
+                Some(t) => say!(
+                    "  [{i}] envmap '{}' scale {:.3}",
+                    scene.textures[*t as usize].name,
+                    radiance.x
+                ),
+                None => say!("  [{i}] constant sky radiance {radiance:.3}"),
+            },
         }
     }
     say!("views    {}", scene.sensors.len());

@@ -10,7 +10,11 @@
 //! ([`group_bounds`]); each ray goes to a jittered point of its group
 //! ([`sub_source_uv`]).
 
+pub mod infinite;
+
 use glam::{Vec2, Vec3};
+
+pub use infinite::{Sky, Sun};
 
 use crate::geometry::{point_polygon_form_factor, Quadric};
 use crate::scene::{mean, Light, Rgb, Scene};
@@ -89,6 +93,10 @@ pub enum SampledLight {
     },
     /// Area light: a diffuse emitting surface.
     Area(AreaEmitter),
+    /// The sun (`directional`).
+    Sun(Sun),
+    /// The sky (`constant`, `envmap`).
+    Sky(Box<Sky>),
 }
 
 /// Light leaving a source: see [`SampledLight::emit_towards`].
@@ -153,6 +161,15 @@ impl SampledLight {
                 let tris = (0..mesh.triangle_count()).map(|t| mesh.triangle(t));
                 SampledLight::Area(AreaEmitter::new(tris, radiance, Vec::new()))
             }
+            Light::Directional {
+                direction,
+                irradiance,
+            } => SampledLight::Sun(Sun::new(scene, direction, irradiance)),
+            Light::Environment {
+                radiance,
+                texture,
+                to_local,
+            } => SampledLight::Sky(Box::new(Sky::new(scene, radiance, texture, to_local))),
         }
     }
 
@@ -186,8 +203,18 @@ impl SampledLight {
         }
     }
 
+    /// Whether this is an extended source, sampled at many points: an area light or
+    /// the sky.
     pub fn is_area(&self) -> bool {
-        matches!(self, SampledLight::Area(_))
+        matches!(self, SampledLight::Area(_) | SampledLight::Sky(_))
+    }
+
+    /// The sky, if this is it.
+    pub fn sky(&self) -> Option<&Sky> {
+        match self {
+            SampledLight::Sky(s) => Some(s),
+            _ => None,
+        }
     }
 
     /// The light point chosen by `u` in `[0,1)^2` (ignored by point and spot lights)
@@ -233,6 +260,8 @@ impl SampledLight {
                 })
             }
             SampledLight::Area(e) => e.sample(p, u),
+            SampledLight::Sun(s) => Some(s.sample(p)),
+            SampledLight::Sky(s) => s.sample(p, u),
         }
     }
 
@@ -244,8 +273,14 @@ impl SampledLight {
     /// times the cosine times its area): the whole power, on average, for a density
     /// that covers every direction the light sends into. `None` where it sends nothing
     /// (outside a spot's cone, behind an area light) or `aim` gives no direction.
+    ///
+    /// The sun's light leaves its disk across the scene along its one direction
+    /// (`aim` is not asked); the sky sends no photons (its light reaches the
+    /// surfaces by the shots, which see through thin glass).
     pub fn emit_towards(&self, u: Vec2, aim: impl FnOnce(Vec3) -> Option<(Vec3, f32)>) -> Option<Emission> {
         let (origin, normal, value) = match self {
+            SampledLight::Sun(s) => return Some(s.emit(u)),
+            SampledLight::Sky(_) => return None,
             SampledLight::Point { position, intensity } => (*position, None, *intensity),
             SampledLight::Spot {
                 position, intensity, ..
@@ -267,6 +302,7 @@ impl SampledLight {
                 ..
             } => spot_falloff(dir.dot(*axis), *cutoff, *cos_cutoff, *cos_beam, *inv_transition),
             SampledLight::Area(_) => normal.map_or(0.0, |n| n.dot(dir)),
+            SampledLight::Sun(_) | SampledLight::Sky(_) => 0.0,
         };
         (scale > 0.0 && pdf > 0.0).then(|| Emission {
             origin,
@@ -589,6 +625,7 @@ pub fn light_power(scene: &Scene, light: &Light) -> f64 {
         Light::Area { shape, radiance } => {
             std::f64::consts::PI * mean(radiance) as f64 * scene.shapes[shape as usize].mesh.area() as f64
         }
+        Light::Directional { .. } | Light::Environment { .. } => infinite::power(scene, light),
     }
 }
 

@@ -222,6 +222,26 @@ impl Fingerprint {
                 self.u32(*shape);
                 self.vec3(*radiance);
             }
+            Light::Directional {
+                direction,
+                irradiance,
+            } => {
+                self.u8(3);
+                self.vec3(*direction);
+                self.vec3(*irradiance);
+            }
+            Light::Environment {
+                radiance,
+                texture,
+                to_local,
+            } => {
+                self.u8(4);
+                self.vec3(*radiance);
+                self.u32(texture.map_or(u32::MAX, |t| t));
+                for c in to_local.to_cols_array() {
+                    self.f32(c);
+                }
+            }
         }
     }
 }

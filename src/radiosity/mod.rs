@@ -44,7 +44,11 @@ mod shot;
 mod transfer;
 
 pub use form_factor::quarter_form_factors;
-use shot::{Levels, ShootPoint, Touching, FIRST_LIGHT_RAYS};
+/// The sky is cut into this many times `--shoot-samples` cells (it surrounds every
+/// receiver: coarser cells leave blotches where a window shows a few of them).
+const SKY_CELLS_PER_SAMPLE: u32 = 4;
+
+use shot::{sky_cells, Levels, ShootPoint, Touching, FIRST_LIGHT_RAYS};
 
 /// What a ray of a deterministic patch shot is worth in photon rays: a patch shot that
 /// casts rays goes ahead only while it carries at least 1 / `SHOT_RAY_WORTH` of the
@@ -582,6 +586,19 @@ impl Solver<'_> {
                 }
                 pts
             }
+            Light::Directional {
+                direction,
+                irradiance,
+            } => {
+                // A point far along the light (the shots' shadow rays aim there; the
+                // light each vertex gets is the sun's own rule, `point_light_at`).
+                let (c, r) = crate::emitters::infinite::scene_sphere(self.scene);
+                vec![ShootPoint::point(c - direction * (1e4 * r), irradiance)]
+            }
+            Light::Environment { .. } => {
+                let sky = SampledLight::prepare(self.scene, &self.scene.lights[l as usize]);
+                sky_cells(self.scene, sky.sky(), count * SKY_CELLS_PER_SAMPLE)
+            }
         }
     }
 
@@ -773,10 +790,10 @@ impl Solver<'_> {
         };
         let sampled = match source {
             SourceId::Light(l) => match &self.scene.lights[l as usize] {
-                Light::Point { .. } | Light::Spot { .. } => {
+                Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } => {
                     Some(SampledLight::prepare(self.scene, &self.scene.lights[l as usize]))
                 }
-                Light::Area { .. } => None,
+                Light::Area { .. } | Light::Environment { .. } => None,
             },
             SourceId::Patch(_) => None,
         };

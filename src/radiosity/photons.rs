@@ -436,7 +436,7 @@ impl Aim {
                             .map(|&(c, r)| sphere_cone(*position, c, r))
                             .collect(),
                     ),
-                    SampledLight::Area(_) => None,
+                    SampledLight::Area(_) | SampledLight::Sun(_) | SampledLight::Sky(_) => None,
                 })
                 .collect(),
             light_pick: Alias::new(&totals),

@@ -185,6 +185,10 @@ pub(super) struct ShootPoint {
     /// Every point of `poly` is on the surface: each receiver aims at a point of its
     /// own in the cell, not at `p`.
     pub(super) flat: bool,
+    /// A cell of the sky ([`sky_cells`]): so large a part of the sphere that its
+    /// points are not alike to a receiver, so each ray's visibility counts by the
+    /// receiver's kernel there (cosines over squared distance), not equally.
+    pub(super) far: bool,
 }
 
 impl ShootPoint {
@@ -198,6 +202,7 @@ impl ShootPoint {
             radiosity: c.value * c.weight,
             quarters: c.quarters.map(|q| q * c.weight),
             flat: c.flat && c.len >= 3,
+            far: false,
         }
     }
 
@@ -219,8 +224,71 @@ impl ShootPoint {
             radiosity: intensity,
             quarters: [intensity; 4],
             flat: false,
+            far: false,
         }
     }
+}
+
+/// The sky's shooting cells: about `count` squares of a cube about the scene, so far
+/// off (10^4 of its radius) that each stands for the directions it covers, facing
+/// in, with pi times the sky's mean radiance over those directions as radiosity (a
+/// receiver's form factor to a cell is then its solid angle times the cosine over
+/// pi). Shadow rays aim at points of their own in each cell, as at an area light's.
+pub fn sky_cells(
+    scene: &crate::scene::Scene,
+    sky: Option<&crate::emitters::Sky>,
+    count: u32,
+) -> Vec<ShootPoint> {
+    let Some(sky) = sky else { return Vec::new() };
+    let (c, r) = crate::emitters::infinite::scene_sphere(scene);
+    let d = 1e4 * r;
+    let k = ((count as f32 / 6.0).sqrt().round() as u32).max(1);
+    let mut out = Vec::with_capacity(6 * (k * k) as usize);
+    for axis in 0..3 {
+        for sign in [1.0f32, -1.0] {
+            // The face at `sign` along `axis`, spanned by the other two axes (wound so
+            // that its normal points back in).
+            let n = Vec3::from_array(std::array::from_fn(|i| if i == axis { sign } else { 0.0 }));
+            let (a, b) = (
+                Vec3::from_array(std::array::from_fn(|i| f32::from(u8::from(i == (axis + 1) % 3)))),
+                Vec3::from_array(std::array::from_fn(|i| f32::from(u8::from(i == (axis + 2) % 3)))),
+            );
+            let (a, b) = if sign > 0.0 { (b, a) } else { (a, b) };
+            for j in 0..k {
+                for i in 0..k {
+                    let at = |s: f32, t: f32| {
+                        c + (n + a * (2.0 * s / k as f32 - 1.0) + b * (2.0 * t / k as f32 - 1.0)) * d
+                    };
+                    let (s0, t0) = (i as f32, j as f32);
+                    let poly = [
+                        at(s0, t0),
+                        at(s0 + 1.0, t0),
+                        at(s0 + 1.0, t0 + 1.0),
+                        at(s0, t0 + 1.0),
+                    ];
+                    // The mean radiance over the cell's directions (a 4 x 4 grid).
+                    let mut l = Vec3::ZERO;
+                    for q in 0..16 {
+                        let (fs, ft) = ((q % 4) as f32 + 0.5, (q / 4) as f32 + 0.5);
+                        let p = at(s0 + fs / 4.0, t0 + ft / 4.0);
+                        l += sky.radiance_towards((p - c).normalize());
+                    }
+                    let radiosity = l / 16.0 * std::f32::consts::PI;
+                    out.push(ShootPoint {
+                        p: at(s0 + 0.5, t0 + 0.5),
+                        n: -n,
+                        poly,
+                        len: 4,
+                        radiosity,
+                        quarters: [radiosity; 4],
+                        flat: true,
+                        far: true,
+                    });
+                }
+            }
+        }
+    }
+    out
 }
 
 impl Solver<'_> {
@@ -265,7 +333,7 @@ impl Solver<'_> {
             let sp = &points[k];
             let per = if sp.flat { per } else { 1 };
             let normal = if light.is_some() { None } else { Some(sp.n) };
-            let (mut hits, mut light) = (0, 0.0);
+            let (mut hits, mut light, mut weights) = (0, 0.0, 0.0);
             for j in 0..per {
                 let target = if sp.flat {
                     let u = stratum(seed, (k as u32) << 9 | salt << 7, j, per);
@@ -273,12 +341,26 @@ impl Solver<'_> {
                 } else {
                     sp.p
                 };
+                let w = if sp.far {
+                    let d = target - x;
+                    let r2 = d.length_squared();
+                    (n.dot(d).max(0.0) * (-sp.n.dot(d)).max(0.0) / (r2 * r2)).max(0.0)
+                } else {
+                    1.0
+                };
+                weights += w;
                 let t = transmittance(self.scene, self.accel, &shadow_ray(x, n, target, normal));
                 if t > 0.0 {
                     hits += 1;
-                    light += t;
+                    light += t * w;
                 }
             }
+            // A sky cell's kernel-weighted share, as a count of `per` rays.
+            let light = match (sp.far, weights > 0.0) {
+                (false, _) => light,
+                (true, true) => light / weights * per as f32,
+                (true, false) => 0.0,
+            };
             (hits, light, per)
         };
         let (mut occ, mut unocc, mut rays) = (Vec3::ZERO, Vec3::ZERO, 0u64);

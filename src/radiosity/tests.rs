@@ -718,6 +718,7 @@ fn cells_touch_where_they_share_a_corner() {
             radiosity: Vec3::ONE,
             quarters: [Vec3::ONE; 4],
             flat: true,
+            far: false,
         }
     };
     let cells = [cell(0., 0.), cell(1., 0.), cell(2., 1.), cell(5., 5.)];
@@ -1032,4 +1033,49 @@ fn a_box_split_by_a_thin_pane_absorbs_all_the_light() {
         absorbed < emitted * 1.03 && absorbed > emitted * 0.97,
         "{absorbed} vs {emitted}"
     );
+}
+
+/// An open floor under a uniform sky of radiance L (`constant`): every vertex gets
+/// irradiance pi L from the upper hemisphere's cells (their form factors sum to 1),
+/// so radiosity rho pi L; beside a box the sky is partly hidden, never brighter.
+#[test]
+fn an_open_floor_under_a_uniform_sky_gets_pi_l() {
+    let mut plane = crate::testutil::split_square(8.0, 0.0, 16);
+    for p in &mut plane.positions {
+        *p -= Vec3::new(4.0, 4.0, 0.0);
+    }
+    let (l, rho) = (0.8f32, 0.5f32);
+    let mut meshes = vec![(plane, Vec3::splat(rho))];
+    for f in box_outside(v(-0.5, -0.5, 0.0), v(0.5, 0.5, 1.0)) {
+        meshes.push((f, Vec3::splat(rho)));
+    }
+    let sky = Light::Environment {
+        radiance: Vec3::splat(l),
+        texture: None,
+        to_local: glam::Mat3::IDENTITY,
+    };
+    let s = scene(meshes, vec![sky], &[]);
+    let sol = solve(&s, &Bvh::build(&s), &settings(0.5, 64, 0), &Silent).unwrap();
+    let e = &sol.lists[0][0];
+    let full = rho * PI * l;
+    let (mut open, mut near) = (0, 0);
+    for (vx, b) in sol
+        .mesh
+        .vertices
+        .iter()
+        .zip(&e.occluded)
+        .filter(|(vx, _)| vx.q.z == 0.0)
+    {
+        let d = vx.q.x.abs().max(vx.q.y.abs());
+        assert!(b.x <= full * 1.001, "{:?}: {} > {full}", vx.q, b.x);
+        if d > 3.5 {
+            open += 1;
+            // The box hides at most a little of the sky from the floor's edge.
+            assert!(b.x > 0.97 * full, "{:?}: {} vs {full}", vx.q, b.x);
+        } else if d > 0.5 && d < 0.7 {
+            near += 1;
+            assert!(b.x < 0.9 * full, "{:?}: {} vs {full}", vx.q, b.x);
+        }
+    }
+    assert!(open > 10 && near > 4, "{open} {near}");
 }

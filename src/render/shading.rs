@@ -138,7 +138,9 @@ impl<'a> Tracer<'a> {
         emit: bool,
     ) -> Rgb {
         let Some(hit) = self.accel.intersect(ray) else {
-            return Vec3::ZERO;
+            // The sky (its light is never sampled at a glossy hit: the lobe's rays
+            // find it).
+            return self.scene.sky(ray.dir);
         };
         if let Some(q) = sib.as_deref_mut() {
             q.object = hit.shape;
@@ -317,6 +319,9 @@ impl<'a> Tracer<'a> {
             l += w * got / n as f32;
         }
         for (i, light) in lights.iter().enumerate() {
+            if light.sky().is_some() {
+                continue; // the lobe's rays read the sky
+            }
             let r = samples(light);
             let light_seed = derive(seed, Stream::Light(i as u32));
             let mut cast = 0;
@@ -368,7 +373,7 @@ impl<'a> Tracer<'a> {
             return (self.trace(ray, depth, seed, counters, None, false), None);
         };
         let Some(hit) = self.accel.intersect(ray) else {
-            return (Vec3::ZERO, None);
+            return (self.scene.sky(ray.dir), None);
         };
         let sp = SurfacePoint::new(self.scene, ray, &hit);
         let emitter = match (sp.front, self.scene.shapes[hit.shape as usize].emitter) {

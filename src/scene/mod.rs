@@ -253,6 +253,23 @@ pub enum Light {
         /// Emitted radiance Le.
         radiance: Rgb,
     },
+    /// Light from infinitely far along one direction (`directional`: the sun).
+    Directional {
+        /// Unit direction the light travels in.
+        direction: Vec3,
+        /// Irradiance on a surface facing it (W/m^2).
+        irradiance: Rgb,
+    },
+    /// Light from infinitely far in every direction: a uniform sky (`constant`) or a
+    /// latitude-longitude image (`envmap`, Mitsuba's mapping: +y up).
+    Environment {
+        /// The radiance (`constant`), or the image's scale (`envmap`).
+        radiance: Rgb,
+        /// Index into [`Scene::textures`] of the image, if any.
+        texture: Option<u32>,
+        /// World to the map's own frame (the inverse of its `to_world`'s rotation).
+        to_local: glam::Mat3,
+    },
 }
 
 impl Light {
@@ -262,8 +279,53 @@ impl Light {
             Light::Point { .. } => "point",
             Light::Spot { .. } => "spot",
             Light::Area { .. } => "area",
+            Light::Directional { .. } => "directional",
+            Light::Environment { texture: None, .. } => "constant",
+            Light::Environment { .. } => "envmap",
         }
     }
+
+    /// Whether the light is infinitely far (directional or environment).
+    pub fn is_infinite(&self) -> bool {
+        matches!(self, Light::Directional { .. } | Light::Environment { .. })
+    }
+
+    /// The radiance an environment sends along `-dir` (seen looking along `dir`,
+    /// world space); zero for other lights. Mitsuba's mapping: u = atan2(x, -z) / 2pi,
+    /// v = acos(y) / pi in the map's frame.
+    pub fn environment_radiance(&self, dir: Vec3, textures: &[Texture]) -> Rgb {
+        let Light::Environment {
+            radiance,
+            texture,
+            to_local,
+        } = self
+        else {
+            return Vec3::ZERO;
+        };
+        match texture.and_then(|t| textures.get(t as usize)) {
+            Some(t) => *radiance * t.eval_lat_long(environment_uv(*to_local * dir)),
+            None => *radiance,
+        }
+    }
+}
+
+/// The latitude-longitude map's (u, v) of unit direction `d` in its own frame
+/// (Mitsuba 3's `envmap`).
+pub fn environment_uv(d: Vec3) -> Vec2 {
+    let d = d.normalize_or(Vec3::Y);
+    let mut u = d.x.atan2(-d.z) * (0.5 * std::f32::consts::FRAC_1_PI);
+    if u < 0.0 {
+        u += 1.0;
+    }
+    Vec2::new(u, d.y.clamp(-1.0, 1.0).acos() * std::f32::consts::FRAC_1_PI)
+}
+
+/// The unit direction (in the map's frame) of the latitude-longitude map's (u, v):
+/// the inverse of [`environment_uv`].
+pub fn environment_dir(uv: Vec2) -> Vec3 {
+    let (sp, cp) = (uv.x * 2.0 * std::f32::consts::PI).sin_cos();
+    let (st, ct) = (uv.y * std::f32::consts::PI).sin_cos();
+    Vec3::new(sp * st, ct, -cp * st)
 }
 
 /// A shape instance: its world-space mesh, material and (optional) area emitter.
@@ -344,6 +406,20 @@ impl Sensor {
 }
 
 impl Scene {
+    /// The environment light (sky) and its index, if the scene has one.
+    pub fn environment(&self) -> Option<(usize, &Light)> {
+        self.lights
+            .iter()
+            .enumerate()
+            .find(|(_, l)| matches!(l, Light::Environment { .. }))
+    }
+
+    /// The radiance of the sky seen looking along `dir` (black without one).
+    pub fn sky(&self, dir: Vec3) -> Rgb {
+        self.environment()
+            .map_or(Vec3::ZERO, |(_, l)| l.environment_radiance(dir, &self.textures))
+    }
+
     /// Whether shadow rays pass through shape `s` (a thin pane of glass,
     /// `thindielectric`: light crosses it unbent, so its shadow is only a dimming).
     pub fn passes_shadows(&self, s: u32) -> bool {

@@ -247,6 +247,31 @@ impl Texture {
     }
 }
 
+impl Texture {
+    /// A latitude-longitude environment map at `uv` ([`super::environment_uv`]), as
+    /// Mitsuba 3's `envmap` reads its image: texel (x, y) sits at u = x / width (the
+    /// first column again at u = 1) and v = y / (height - 1), the first and last rows
+    /// at the poles; bilinear in between.
+    pub fn eval_lat_long(&self, uv: Vec2) -> Rgb {
+        if !uv.is_finite() {
+            return self.mean;
+        }
+        let x = uv.x * self.width as f32;
+        let y = (uv.y * (self.height.max(2) - 1) as f32).clamp(0.0, (self.height - 1) as f32);
+        let (fx, fy) = (x.floor(), y.floor());
+        let (wx, wy) = (x - fx, y - fy);
+        let (x0, y0) = (fx as i64, fy as i64);
+        let at = |x: i64, y: i64| {
+            let x = x.rem_euclid(i64::from(self.width)) as usize;
+            let y = y.clamp(0, i64::from(self.height) - 1) as usize;
+            self.texel_at(y * self.width as usize + x)
+        };
+        let top = at(x0, y0) * (1.0 - wx) + at(x0 + 1, y0) * wx;
+        let bottom = at(x0, y0 + 1) * (1.0 - wx) + at(x0 + 1, y0 + 1) * wx;
+        top * (1.0 - wy) + bottom * wy
+    }
+}
+
 /// Coordinate `i` of a texel wrapped into `0..n`.
 fn wrap(i: i64, n: u32, mode: TexWrap) -> usize {
     let n = i64::from(n);

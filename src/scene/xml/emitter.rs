@@ -1,11 +1,12 @@
-//! Emitter plugins: `point`, `spot`, and `area` (nested inside a shape).
+//! Emitter plugins: `point`, `spot`, `directional`, `constant`, `envmap`, and `area`
+//! (nested inside a shape).
 
 use glam::{Mat4, Vec3};
 use roxmltree::Node;
 
 use super::document::{Loader, Src};
 use super::properties::Target;
-use crate::scene::{Light, Rgb};
+use crate::scene::{Light, Rgb, Texture};
 use crate::Result;
 
 impl Loader {
@@ -104,6 +105,82 @@ impl Loader {
             }
             "area" => {
                 return Err(s.err(c, "an 'area' emitter must be nested inside a <shape>"));
+            }
+            "directional" => {
+                let obj = self.collect(s, c, "emitter 'directional'".into())?;
+                let dir = match (obj.vec3("direction")?, obj.transform("to_world")?) {
+                    (Some(_), Some(_)) => {
+                        return Err(s.err(
+                            c,
+                            "emitter 'directional': give either 'direction' or 'to_world', not both",
+                        ))
+                    }
+                    (Some(d), None) => d,
+                    (None, Some(m)) => m.transform_vector3(Vec3::Z),
+                    (None, None) => Vec3::Z,
+                };
+                let direction = dir
+                    .try_normalize()
+                    .ok_or_else(|| obj.err_param("direction", "is the zero vector"))?;
+                let irradiance = obj.emission("irradiance")?;
+                self.finish(&obj);
+                if irradiance == Vec3::ZERO {
+                    self.warn(s, c, "directional light with zero irradiance");
+                }
+                self.scene.lights.push(Light::Directional {
+                    direction,
+                    irradiance,
+                });
+                self.name_light(c);
+            }
+            "constant" | "envmap" => {
+                if self.scene.environment().is_some() {
+                    return Err(s.err(
+                        c,
+                        "a scene has at most one environment emitter ('constant' or 'envmap')",
+                    ));
+                }
+                let obj = self.collect(s, c, format!("emitter '{ty}'"))?;
+                let (radiance, texture) = if ty == "constant" {
+                    (obj.emission("radiance")?, None)
+                } else {
+                    let (path, fname) = self.file_param(&obj, "filename")?;
+                    let scale = obj.float("scale")?.unwrap_or(1.0);
+                    if !(scale.is_finite() && scale >= 0.0) {
+                        return Err(obj.err_param("scale", format!("= {scale} must be a nonnegative number")));
+                    }
+                    // Mitsuba 0.6's parameters that change nothing here.
+                    for p in ["gamma", "cache", "sampling_weight"] {
+                        obj.get(p);
+                    }
+                    let t = Texture::load(&path, false)
+                        .map_err(|m| obj.err_param("filename", format!("= '{fname}': {m}")))?;
+                    let (w, h) = t.size();
+                    if w < 2 || h < 3 {
+                        return Err(obj.err_param(
+                            "filename",
+                            format!(
+                                "= '{fname}': an environment map needs at least 2 x 3 pixels, not {w} x {h}"
+                            ),
+                        ));
+                    }
+                    self.scene.textures.push(t);
+                    (Vec3::splat(scale), Some(self.scene.textures.len() as u32 - 1))
+                };
+                let to_world = obj.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+                let rot = glam::Mat3::from_mat4(to_world);
+                let to_local = if rot.determinant().abs() > 1e-12 {
+                    rot.inverse()
+                } else {
+                    return Err(obj.err_param("to_world", "is singular"));
+                };
+                self.finish(&obj);
+                self.scene.lights.push(Light::Environment {
+                    radiance,
+                    texture,
+                    to_local,
+                });
+                self.name_light(c);
             }
             t => self.warn(s, c, format!("emitter '{t}' is not supported; ignored")),
         }

@@ -365,12 +365,93 @@ fn area_emitter_links_shape_and_light() {
 #[test]
 fn unsupported_emitters_warn() {
     let l = ok(&[
-        r#"<emitter type="constant"><rgb name="radiance" value="1"/></emitter>"#,
+        r#"<emitter type="sunsky"/>"#,
         r#"<emitter type="point"><rgb name="intensity" value="0"/></emitter>"#,
     ]);
     assert_eq!(l.scene.lights.len(), 1);
-    assert!(has_warning(&l, 3, "'constant'"));
+    assert!(has_warning(&l, 3, "'sunsky'"));
     assert!(has_warning(&l, 4, "zero intensity"));
+}
+
+/// The sun and the sky: `directional` from `direction` or `to_world` (+z), `constant`,
+/// and `envmap` (an image beside the scene, its `scale` and `to_world`); a missing
+/// image, a second sky and both `direction` and `to_world` are errors naming the line.
+#[test]
+fn daylight_emitters_read_as_mitsuba_and_bad_ones_fail_with_their_line() {
+    let l = ok(&[
+        r#"<emitter type="directional"><vector name="direction" value="0, -2, 0"/><rgb name="irradiance" value="3, 2, 1"/></emitter>"#,
+        r#"<emitter type="directional"><transform name="to_world"><lookat origin="0,0,0" target="1,0,0" up="0,1,0"/></transform></emitter>"#,
+        r#"<emitter type="constant"><rgb name="radiance" value="0.5, 0.6, 0.7"/></emitter>"#,
+    ]);
+    assert!(
+        !l.warnings.iter().any(|w| w.contains("emitter")),
+        "{:?}",
+        l.warnings
+    );
+    match &l.scene.lights[..] {
+        [Light::Directional {
+            direction: d0,
+            irradiance,
+        }, Light::Directional {
+            direction: d1,
+            irradiance: e1,
+        }, Light::Environment {
+            radiance,
+            texture: None,
+            ..
+        }] => {
+            assert!(close(*d0, -Vec3::Y) && close(*irradiance, Vec3::new(3.0, 2.0, 1.0)));
+            assert!(close(*d1, Vec3::X) && close(*e1, Vec3::ONE));
+            assert!(close(*radiance, Vec3::new(0.5, 0.6, 0.7)));
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(l.scene.sky(Vec3::X), Vec3::new(0.5, 0.6, 0.7));
+
+    // An envmap: a 2 x 3 image, rotated 90 degrees about y; row 0 (the zenith) red.
+    let dir = tempfile::tempdir().unwrap();
+    exr::prelude::write_rgb_file(dir.path().join("sky.exr"), 2, 3, |_, y| {
+        if y == 0 {
+            (4.0f32, 0.0f32, 0.0f32)
+        } else {
+            (0.0, 0.0, 1.0)
+        }
+    })
+    .unwrap();
+    let xml = format!(
+        "<scene version=\"3.0.0\">\n{SENSOR}\n<emitter type=\"envmap\"><string name=\"filename\" value=\"sky.exr\"/>\
+         <float name=\"scale\" value=\"2\"/><transform name=\"to_world\"><rotate y=\"1\" angle=\"90\"/></transform></emitter>\n</scene>"
+    );
+    let path = dir.path().join("scene.xml");
+    fs::write(&path, &xml).unwrap();
+    let l = load(&path, &[]).unwrap();
+    assert!(close(l.scene.sky(Vec3::Y), Vec3::new(8.0, 0.0, 0.0)));
+    assert!(close(l.scene.sky(-Vec3::Y), Vec3::new(0.0, 0.0, 2.0)));
+    // Halfway down, the middle row: blue, whichever way (the rotation keeps y).
+    assert!(close(l.scene.sky(Vec3::X), Vec3::new(0.0, 0.0, 2.0)));
+
+    let e = err(
+        &[r#"<emitter type="envmap"><string name="filename" value="nowhere.exr"/></emitter>"#],
+        3,
+    );
+    assert!(e.contains("filename") && e.contains("nowhere.exr"), "{e}");
+    let e = err(
+        &[r#"<emitter type="constant"/>"#, r#"<emitter type="constant"/>"#],
+        4,
+    );
+    assert!(e.contains("at most one"), "{e}");
+    let e = err(
+        &[
+            r#"<emitter type="directional"><vector name="direction" value="0,0,1"/><transform name="to_world"/></emitter>"#,
+        ],
+        3,
+    );
+    assert!(e.contains("not both"), "{e}");
+    let e = err(
+        &[r#"<emitter type="directional"><vector name="direction" value="0,0,0"/></emitter>"#],
+        3,
+    );
+    assert!(e.contains("direction"), "{e}");
 }
 
 // ------------------------------------------------------------- sensors
