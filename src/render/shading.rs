@@ -156,6 +156,7 @@ impl<'a> Tracer<'a> {
             }
         }
         let (bsdf, kind) = sp.material(self.scene);
+        let sp = sp.bumped(self.scene, bsdf);
         if kind.is_glass() {
             if depth < self.max_depth {
                 for (ray, w, s) in glass::rays(&kind, &sp, ray.dir, depth, seed) {
@@ -387,6 +388,7 @@ impl<'a> Tracer<'a> {
             _ => None,
         };
         let (bsdf, kind) = sp.material(self.scene);
+        let sp = sp.bumped(self.scene, bsdf);
         if kind.is_glass() {
             let mut l = Vec3::ZERO;
             if depth < self.max_depth {

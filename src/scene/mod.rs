@@ -142,6 +142,11 @@ pub enum TexField {
     Specular,
     /// `blendbsdf`'s `weight` (the texture's first channel).
     Weight,
+    /// A height field that tilts the shading normal (`bumpmap`; its gradient times
+    /// the slot's `factor.x`, Mitsuba's `scale`).
+    Bump,
+    /// The shading normal in the surface's tangent frame, 2 x texel - 1 (`normalmap`).
+    Normal,
 }
 
 /// A textured parameter of a material: where in the (blended) model it sits, which

@@ -248,6 +248,27 @@ impl Texture {
 }
 
 impl Texture {
+    /// The gradient in surface (u, v) of the texture's luminance (bilinear between
+    /// texel centres, through `to_uv`): what a bump map tilts the normal by.
+    pub fn gradient(&self, uv: Vec2) -> Vec2 {
+        let m = self.to_uv.matrix2;
+        let q = self.to_uv.transform_point2(uv);
+        if !q.is_finite() {
+            return Vec2::ZERO;
+        }
+        let lum = |c: Rgb| 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
+        let p = q * Vec2::new(self.width as f32, self.height as f32) - 0.5;
+        let f = p.floor();
+        let w = p - f;
+        let (x, y) = (f.x as i64, f.y as i64);
+        let (h00, h10) = (lum(self.texel(x, y)), lum(self.texel(x + 1, y)));
+        let (h01, h11) = (lum(self.texel(x, y + 1)), lum(self.texel(x + 1, y + 1)));
+        let dx = ((1.0 - w.y) * (h10 - h00) + w.y * (h11 - h01)) * self.width as f32;
+        let dy = ((1.0 - w.x) * (h01 - h00) + w.x * (h11 - h10)) * self.height as f32;
+        // Through the map's (u, v) transform: the chain rule.
+        m.transpose() * Vec2::new(dx, dy)
+    }
+
     /// A latitude-longitude environment map at `uv` ([`super::environment_uv`]), as
     /// Mitsuba 3's `envmap` reads its image: texel (x, y) sits at u = x / width (the
     /// first column again at u = 1) and v = y / (height - 1), the first and last rows

@@ -153,7 +153,44 @@ impl Loader {
                 };
                 (kind, twosided)
             }
-            "mask" | "bumpmap" | "normalmap" => {
+            "bumpmap" | "normalmap" => {
+                let inner = self.nested_bsdfs(&obj)?;
+                let Some(first) = inner.into_iter().next() else {
+                    return Err(s.err(c, format!("bsdf '{ty}' needs a nested bsdf")));
+                };
+                let (field, scale, name) = if ty == "bumpmap" {
+                    let scale = obj.float("scale")?.unwrap_or(1.0);
+                    if !scale.is_finite() {
+                        return Err(obj.err_param("scale", format!("= {scale} is not a number")));
+                    }
+                    let name = obj.any_texture().map(|(p, _)| p.name.clone());
+                    (TexField::Bump, scale, name)
+                } else {
+                    (TexField::Normal, 1.0, Some("normalmap".to_string()))
+                };
+                let image = name.as_deref().and_then(|n| obj.texture_image(n));
+                match image {
+                    Some(texture) => {
+                        textures = first.textures.clone();
+                        textures.push(TexSlot {
+                            path: Vec::new(),
+                            field,
+                            texture,
+                            factor: Vec3::splat(scale),
+                        });
+                    }
+                    None => {
+                        textures = first.textures.clone();
+                        self.warn(
+                            s,
+                            c,
+                            format!("bsdf '{ty}' without a bitmap texture: its nested bsdf is used alone"),
+                        );
+                    }
+                }
+                (first.kind, first.twosided)
+            }
+            "mask" => {
                 obj.mark_all();
                 let inner = self.nested_bsdfs(&obj)?;
                 let Some(first) = inner.into_iter().next() else {

@@ -71,7 +71,7 @@ impl Val {
 }
 
 pub(super) struct Prop<'a, 'i> {
-    name: String,
+    pub(super) name: String,
     pub(super) val: Val,
     node: Node<'a, 'i>,
     used: Cell<bool>,
@@ -104,6 +104,11 @@ impl<'a, 'i> Obj<'a, 'i> {
         let p = self.props.iter().find(|p| p.name == name)?;
         p.used.set(true);
         Some(p)
+    }
+
+    /// Every property, each marked as used.
+    pub(super) fn props(&self) -> impl Iterator<Item = &Prop<'a, 'i>> {
+        self.props.iter().inspect(|p| p.used.set(true))
     }
 
     pub(super) fn mark_all(&self) {

@@ -1436,3 +1436,49 @@ fn bad_rough_conductors_are_errors_naming_the_parameter() {
         l.warnings
     );
 }
+
+/// `bumpmap` (its texture under any name, `scale`) and `normalmap` keep their nested
+/// bsdf and add the map as a slot; without an image, the nested bsdf alone, warned.
+#[test]
+fn bump_and_normal_maps_wrap_their_nested_bsdf() {
+    use crate::scene::TexField;
+    let dir = tempfile::tempdir().unwrap();
+    write_png(dir.path(), "h.png", [0, 0, 0], [255, 255, 255]);
+    let xml = format!(
+        "<scene version=\"3.0.0\">\n{SENSOR}\n\
+         <bsdf type=\"bumpmap\" id=\"b\"><texture type=\"bitmap\" name=\"arbitrary\"><string name=\"filename\" value=\"h.png\"/><boolean name=\"raw\" value=\"true\"/></texture>\
+         <float name=\"scale\" value=\"0.5\"/><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.3\"/></bsdf></bsdf>\n\
+         <bsdf type=\"normalmap\" id=\"n\"><texture type=\"bitmap\" name=\"normalmap\"><string name=\"filename\" value=\"h.png\"/><boolean name=\"raw\" value=\"true\"/></texture>\
+         <bsdf type=\"twosided\"><bsdf type=\"diffuse\"/></bsdf></bsdf>\n\
+         <bsdf type=\"bumpmap\" id=\"c\"><bsdf type=\"diffuse\"/></bsdf>\n\
+         <shape type=\"cube\"><ref id=\"b\"/></shape><shape type=\"cube\"><ref id=\"n\"/></shape><shape type=\"cube\"><ref id=\"c\"/></shape>\n</scene>"
+    );
+    let path = dir.path().join("scene.xml");
+    fs::write(&path, xml).unwrap();
+    let l = load(&path, &[]).unwrap();
+    let b = &l.scene.bsdfs;
+    assert_eq!(
+        b[0].kind,
+        BsdfKind::Diffuse {
+            reflectance: Vec3::splat(0.3)
+        }
+    );
+    assert_eq!(
+        (b[0].textures[0].field, b[0].textures[0].factor.x),
+        (TexField::Bump, 0.5)
+    );
+    assert!(b[1].twosided && b[1].textures[0].field == TexField::Normal);
+    assert!(b[2].textures.is_empty());
+    assert!(
+        l.warnings
+            .iter()
+            .any(|w| w.contains(":5:") && w.contains("without a bitmap")),
+        "{:?}",
+        l.warnings
+    );
+    assert!(
+        !l.warnings.iter().any(|w| w.contains("not supported")),
+        "{:?}",
+        l.warnings
+    );
+}

@@ -6,7 +6,7 @@ use roxmltree::Node;
 
 use super::document::{read_text, Loader, Src};
 use super::parse;
-use super::properties::{Obj, Target, TexVal, Val};
+use super::properties::{Obj, Prop, Target, TexVal, Val};
 use crate::error::{Error, Pos};
 use crate::scene::texture::{TexFilter, TexWrap, Texture};
 use crate::scene::Rgb;
@@ -77,6 +77,16 @@ impl Obj<'_, '_> {
             Val::Texture(t) => t.image,
             _ => None,
         }
+    }
+}
+
+impl<'a, 'i> Obj<'a, 'i> {
+    /// The first texture among the parameters, whatever its name (a `bumpmap`'s).
+    pub(super) fn any_texture(&self) -> Option<(&Prop<'a, 'i>, TexVal)> {
+        self.props().find_map(|p| match p.val {
+            Val::Texture(t) => Some((p, t)),
+            _ => None,
+        })
     }
 }
 
