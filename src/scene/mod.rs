@@ -187,9 +187,9 @@ pub struct Bsdf {
 /// Which parameter of a [`BsdfKind`] a texture gives.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TexField {
-    /// `diffuse`'s `reflectance`, `plastic`'s `diffuse_reflectance`.
+    /// `diffuse`'s `reflectance`, `plastic`'s and `roughplastic`'s `diffuse_reflectance`.
     Diffuse,
-    /// `conductor`'s and `plastic`'s `specular_reflectance`.
+    /// `conductor`'s, `roughconductor`'s, `plastic`'s and `roughplastic`'s `specular_reflectance`.
     Specular,
     /// `blendbsdf`'s `weight` (the texture's first channel).
     Weight,
