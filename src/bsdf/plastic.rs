@@ -485,6 +485,10 @@ mod tests {
                 *diffuse_reflectance = Vec3::ONE;
             }
             let lobe = kind.glossy().unwrap();
+            // No mirror part: the coating's reflection is the lobe; the base is
+            // diffuse but not Lambertian.
+            assert_eq!(kind.mirror(0.7), Vec3::ZERO);
+            assert!(kind.has_diffuse() && kind.has_mirror() && kind.lambertian().is_none());
             let n = 2000;
             // The diffuse part's directional albedo: 2 pi integral f(c) c dc.
             let directional = |cv: f32| -> f32 {
