@@ -98,6 +98,7 @@ impl Fresnel {
                 fresnel_conductor(c, eta.z, k.z),
             ),
             Fresnel::Schlick { f0 } => f0 + (Vec3::ONE - f0) * (1.0 - c).powi(5),
+            Fresnel::Dielectric { eta } => Vec3::splat(super::fresnel_dielectric(c, eta)),
         }
     }
 

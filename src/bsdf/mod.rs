@@ -4,6 +4,7 @@
 
 pub mod glass;
 pub mod microfacet;
+pub mod plastic;
 
 use glam::Vec3;
 
@@ -68,6 +69,16 @@ impl BsdfKind {
                 plastic_base(*diffuse_reflectance, *eta, *nonlinear)
                     * (t / (eta * eta) * std::f32::consts::FRAC_1_PI)
             }
+            BsdfKind::RoughPlastic {
+                diffuse_reflectance,
+                lobe,
+                nonlinear,
+                coating,
+            } => {
+                let c = plastic::coating(lobe, coating);
+                c.base(*diffuse_reflectance, plastic::coating_eta(lobe), *nonlinear)
+                    * (c.transmittance(cos_l) * c.transmittance(cos_v))
+            }
             BsdfKind::Blend { weight, a, b } => {
                 a.diffuse_brdf(cos_l, cos_v) * (1.0 - weight) + b.diffuse_brdf(cos_l, cos_v) * *weight
             }
@@ -78,7 +89,9 @@ impl BsdfKind {
     /// cosine `cos_v`.
     pub fn mirror(&self, cos_v: f32) -> Rgb {
         match self {
-            BsdfKind::Diffuse { .. } | BsdfKind::RoughConductor { .. } => Vec3::ZERO,
+            BsdfKind::Diffuse { .. } | BsdfKind::RoughConductor { .. } | BsdfKind::RoughPlastic { .. } => {
+                Vec3::ZERO
+            }
             BsdfKind::Conductor { specular_reflectance } => *specular_reflectance,
             BsdfKind::Plastic {
                 specular_reflectance,
@@ -112,7 +125,7 @@ impl BsdfKind {
             BsdfKind::Conductor { .. } | BsdfKind::RoughConductor { .. } | BsdfKind::Dielectric { .. } => {
                 Some(Vec3::ZERO)
             }
-            BsdfKind::Plastic { .. } => None,
+            BsdfKind::Plastic { .. } | BsdfKind::RoughPlastic { .. } => None,
             BsdfKind::Blend { weight, a, b } => {
                 Some(a.lambertian()? * (1.0 - weight) + b.lambertian()? * *weight)
             }
@@ -128,6 +141,9 @@ impl BsdfKind {
                 false
             }
             BsdfKind::Plastic {
+                diffuse_reflectance, ..
+            }
+            | BsdfKind::RoughPlastic {
                 diffuse_reflectance, ..
             } => diffuse_reflectance.max_element() > 0.0,
             BsdfKind::Blend { weight, a, b } => {
@@ -169,6 +185,18 @@ impl BsdfKind {
                     / n as f32;
                 plastic_base(*diffuse_reflectance, *eta, *nonlinear) * (4.0 * one * one / (eta * eta))
             }
+            BsdfKind::RoughPlastic {
+                diffuse_reflectance,
+                lobe,
+                nonlinear,
+                coating,
+            } => {
+                // The same double integral, from the coating's precomputed mean.
+                let c = plastic::coating(lobe, coating);
+                let t = c.mean_external;
+                c.base(*diffuse_reflectance, plastic::coating_eta(lobe), *nonlinear)
+                    * (std::f32::consts::PI * t * t)
+            }
         }
     }
 
@@ -180,11 +208,11 @@ impl BsdfKind {
             || self.glossy().is_some()
     }
 
-    /// The glossy lobe (a rough conductor's), scaled by its weight in a blend. Of a
+    /// The glossy lobe (a rough conductor's, a rough plastic's coating's), scaled by its weight in a blend. Of a
     /// blend of two glossy materials, the heavier one's alone.
     pub fn glossy(&self) -> Option<Glossy> {
         match self {
-            BsdfKind::RoughConductor { lobe } => Some(*lobe),
+            BsdfKind::RoughConductor { lobe } | BsdfKind::RoughPlastic { lobe, .. } => Some(*lobe),
             BsdfKind::Blend { weight, a, b } => {
                 let a = a.glossy().map(|g| (g, 1.0 - weight));
                 let b = b.glossy().map(|g| (g, *weight));

@@ -172,6 +172,10 @@ impl Fingerprint {
                         self.u8(1);
                         self.vec3(f0);
                     }
+                    Fresnel::Dielectric { eta } => {
+                        self.u8(2);
+                        self.f32(eta);
+                    }
                 }
                 self.vec3(lobe.scale);
             }
@@ -186,6 +190,23 @@ impl Fingerprint {
                 self.vec3(*specular_reflectance);
                 self.vec3(*specular_transmittance);
                 self.bool(*thin);
+            }
+            BsdfKind::RoughPlastic {
+                diffuse_reflectance,
+                lobe,
+                nonlinear,
+                ..
+            } => {
+                // The coating is made from the lobe.
+                self.u8(5);
+                self.vec3(*diffuse_reflectance);
+                self.f32(lobe.distribution.alpha_u);
+                self.bool(lobe.distribution.beckmann);
+                if let Fresnel::Dielectric { eta } = lobe.fresnel {
+                    self.f32(eta);
+                }
+                self.vec3(lobe.scale);
+                self.bool(*nonlinear);
             }
             BsdfKind::Blend { weight, a, b } => {
                 self.u8(3);

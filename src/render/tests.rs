@@ -685,3 +685,66 @@ fn a_glossy_floor_reflects_an_area_light_once_by_light_samples_and_lobe_rays() {
         assert!((est - want).abs() < 0.03 * want, "alpha {alpha}: {est} vs {want}");
     }
 }
+
+/// A rough plastic floor under a point light, nothing else: the radiance seen from
+/// the side is the whole BSDF, the coating's lobe plus the base seen through the
+/// coating (Mitsuba's `roughplastic`, whose values the bsdf tests check), times
+/// I cos / r^2: the lobe's light sample and the diffuse part's shadow ray each
+/// bring their share, once. The lobe's rays meet nothing.
+#[test]
+fn a_rough_plastic_floor_reflects_a_point_light_by_its_lobe_and_its_base() {
+    use crate::accel::Ray;
+    use crate::scene::{BsdfKind, Fresnel, Glossy, Light, Microfacet};
+    use crate::testutil::{scene_with, square};
+    let kind = BsdfKind::RoughPlastic {
+        diffuse_reflectance: Vec3::new(0.6, 0.3, 0.1),
+        lobe: Glossy {
+            distribution: Microfacet {
+                alpha_u: 0.2,
+                alpha_v: 0.2,
+                beckmann: false,
+            },
+            fresnel: Fresnel::Dielectric { eta: 1.5 },
+            scale: Vec3::ONE,
+        },
+        nonlinear: false,
+        coating: Default::default(),
+    };
+    let (h, i) = (2.0f32, 10.0f32);
+    let s = scene_with(
+        vec![(square(-10.0, 10.0, -10.0, 10.0, 0.0, false), kind.clone())],
+        vec![Light::Point {
+            position: Vec3::new(0.0, 0.0, h),
+            intensity: Vec3::splat(i),
+        }],
+        &[],
+    );
+    let bvh = Bvh::build(&s);
+    let mut st = settings(Method::Direct);
+    st.area_samples = 1;
+    let tracer = crate::render::Tracer::new(&s, &bvh, &st);
+    let eye = Vec3::new(-1.0, 0.0, 1.0);
+    let lobe = kind.glossy().unwrap();
+    // The lobe's peak is at x = -2/3.
+    for x in [-0.67f32, -0.3, 1.0] {
+        let p = Vec3::new(x, 0.0, 0.0);
+        let wo = (eye - p).normalize();
+        let mut c = crate::render::Counters::default();
+        let l = tracer.radiance(&Ray::new(eye, -wo), 0, 1, &mut c);
+        let r2 = h * h + x * x;
+        let wi = Vec3::new(-x, 0.0, h) / r2.sqrt();
+        let f = lobe.eval(wi, wo) + kind.diffuse_brdf(wi.z, wo.z);
+        let expect = f * (i / r2 * wi.z);
+        assert!(
+            (l - expect).abs().max_element() < 1e-4 * expect.max_element(),
+            "x {x}: {l} vs {expect}"
+        );
+        // Both parts count: neither alone is the whole.
+        let diffuse = kind.diffuse_brdf(wi.z, wo.z).x * i / r2 * wi.z;
+        assert!(diffuse > 0.05 * expect.x, "x {x}: {diffuse} of {}", expect.x);
+        if x < -0.5 {
+            assert!(diffuse < 0.8 * expect.x, "x {x}: {diffuse} of {}", expect.x);
+        }
+        assert_eq!(c.shadow_rays, 2);
+    }
+}

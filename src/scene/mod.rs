@@ -7,6 +7,7 @@ pub mod xml;
 
 use std::borrow::Cow;
 use std::path::PathBuf;
+use std::sync::{Arc, OnceLock};
 
 use glam::{Mat4, Vec2, Vec3};
 
@@ -47,6 +48,19 @@ pub enum BsdfKind {
         eta: f32,
         /// Mitsuba's `nonlinear` flag (internal scattering darkens colours).
         nonlinear: bool,
+    },
+    /// Diffuse base under a rough dielectric coating (`roughplastic`), as in Mitsuba 3.
+    RoughPlastic {
+        /// Diffuse reflectance of the base.
+        diffuse_reflectance: Rgb,
+        /// The coating's reflection: an isotropic lobe whose Fresnel term is
+        /// [`Fresnel::Dielectric`] (its `eta` is `int_ior / ext_ior`) and whose scale
+        /// is `specular_reflectance`.
+        lobe: Glossy,
+        /// Mitsuba's `nonlinear` flag (internal scattering darkens colours).
+        nonlinear: bool,
+        /// The coating's transmittance by angle, computed from `lobe` on first use.
+        coating: CoatingCell,
     },
     /// A rough conductor (`roughconductor`): a glossy lobe of microfacets.
     RoughConductor {
@@ -106,6 +120,57 @@ pub enum Fresnel {
         /// Reflectance at normal incidence.
         f0: Rgb,
     },
+    /// A dielectric's (unpolarised, the same in every channel): a rough plastic's
+    /// coating.
+    Dielectric {
+        /// Relative index of refraction `int_ior / ext_ior`.
+        eta: f32,
+    },
+}
+
+/// Entries of [`Coating::external`]: Mitsuba 3's `MI_ROUGH_TRANSMITTANCE_RES`.
+pub const COATING_RES: usize = 64;
+
+/// What light a rough dielectric coating lets through, as Mitsuba 3's `roughplastic`
+/// precomputes it (the numbers are made by the bsdf layer).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Coating {
+    /// Transmittance into the coating of light from outside at cosine
+    /// `i / (COATING_RES - 1)`, `i` the index (linearly interpolated in between).
+    pub external: [f32; COATING_RES],
+    /// Mean reflectance of the coating from inside, to diffuse light.
+    pub internal_reflectance: f32,
+    /// Cosine-weighted hemispherical mean of `external`, `2 * integral t(mu) mu dmu`.
+    pub mean_external: f32,
+}
+
+/// A [`Coating`] computed once, on first use, and shared by the clones of the
+/// material. It depends only on the other parameters of the material, so it takes
+/// no part in comparisons.
+#[derive(Clone, Default)]
+pub struct CoatingCell(Arc<OnceLock<Coating>>);
+
+impl CoatingCell {
+    /// The coating, made by `make` the first time.
+    pub fn get_or_init(&self, make: impl FnOnce() -> Coating) -> &Coating {
+        self.0.get_or_init(make)
+    }
+}
+
+impl PartialEq for CoatingCell {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl std::fmt::Debug for CoatingCell {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(if self.0.get().is_some() {
+            "CoatingCell(computed)"
+        } else {
+            "CoatingCell(pending)"
+        })
+    }
 }
 
 /// A rough conductor's lobe: `specular_reflectance` times the microfacet model.
@@ -136,9 +201,9 @@ pub struct Bsdf {
 /// Which parameter of a [`BsdfKind`] a texture gives.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TexField {
-    /// `diffuse`'s `reflectance`, `plastic`'s `diffuse_reflectance`.
+    /// `diffuse`'s `reflectance`, `plastic`'s and `roughplastic`'s `diffuse_reflectance`.
     Diffuse,
-    /// `conductor`'s and `plastic`'s `specular_reflectance`.
+    /// `conductor`'s, `roughconductor`'s, `plastic`'s and `roughplastic`'s `specular_reflectance`.
     Specular,
     /// `blendbsdf`'s `weight` (the texture's first channel).
     Weight,
@@ -191,6 +256,9 @@ impl Bsdf {
                 (
                     BsdfKind::Plastic {
                         diffuse_reflectance, ..
+                    }
+                    | BsdfKind::RoughPlastic {
+                        diffuse_reflectance, ..
                     },
                     TexField::Diffuse,
                 ) => *diffuse_reflectance = value.clamp(Vec3::ZERO, Vec3::ONE),
@@ -204,7 +272,10 @@ impl Bsdf {
                     },
                     TexField::Specular,
                 ) => *specular_reflectance = value.max(Vec3::ZERO),
-                (BsdfKind::RoughConductor { lobe }, TexField::Specular) => lobe.scale = value.max(Vec3::ZERO),
+                (BsdfKind::RoughConductor { lobe }, TexField::Specular)
+                | (BsdfKind::RoughPlastic { lobe, .. }, TexField::Specular) => {
+                    lobe.scale = value.max(Vec3::ZERO)
+                }
                 (BsdfKind::Blend { weight, .. }, TexField::Weight) => *weight = value.x.clamp(0.0, 1.0),
                 _ => {}
             }

@@ -1,6 +1,7 @@
-//! BSDF plugins: `diffuse`, `conductor`, `roughconductor`, `plastic`, `dielectric`,
-//! `thindielectric` (the other rough variants become their smooth counterparts),
-//! `twosided`, `blendbsdf`; the unsupported ones become diffuse or their nested bsdf.
+//! BSDF plugins: `diffuse`, `conductor`, `roughconductor`, `plastic`, `roughplastic`,
+//! `dielectric`, `thindielectric` (`roughdiffuse` becomes `diffuse`, `roughdielectric`
+//! `dielectric`), `twosided`, `blendbsdf`, `bumpmap`, `normalmap`; the unsupported
+//! ones become diffuse or their nested bsdf.
 
 use glam::Vec3;
 use roxmltree::Node;
@@ -51,12 +52,10 @@ impl Loader {
                 (kind, false)
             }
             "plastic" | "roughplastic" => {
-                if ty == "roughplastic" {
-                    self.rough(s, c, &ty, "plastic");
-                    for p in ["alpha", "distribution", "sample_visible"] {
-                        obj.get(p);
-                    }
-                }
+                let distribution = match ty.as_str() {
+                    "roughplastic" => Some(rough_plastic(&obj)?),
+                    _ => None,
+                };
                 let diffuse_reflectance = obj.reflectance("diffuse_reflectance", 0.5)?;
                 let specular_reflectance = obj.reflectance("specular_reflectance", 1.0)?;
                 let int_ior = ior(&obj, "int_ior", 1.49)?;
@@ -64,11 +63,25 @@ impl Loader {
                 let nonlinear = obj.boolean("nonlinear", false)?;
                 slot("diffuse_reflectance", TexField::Diffuse, Vec3::ONE);
                 slot("specular_reflectance", TexField::Specular, Vec3::ONE);
-                let kind = BsdfKind::Plastic {
-                    diffuse_reflectance,
-                    specular_reflectance,
-                    eta: int_ior / ext_ior,
-                    nonlinear,
+                let kind = match distribution {
+                    Some(distribution) => BsdfKind::RoughPlastic {
+                        diffuse_reflectance,
+                        lobe: Glossy {
+                            distribution,
+                            fresnel: Fresnel::Dielectric {
+                                eta: int_ior / ext_ior,
+                            },
+                            scale: specular_reflectance,
+                        },
+                        nonlinear,
+                        coating: Default::default(),
+                    },
+                    None => BsdfKind::Plastic {
+                        diffuse_reflectance,
+                        specular_reflectance,
+                        eta: int_ior / ext_ior,
+                        nonlinear,
+                    },
                 };
                 (kind, false)
             }
@@ -429,6 +442,46 @@ impl Loader {
         self.default_bsdf[k] = Some(i);
         i
     }
+}
+
+/// A rough plastic's distribution of normals (Mitsuba 3's `roughplastic`:
+/// `distribution` `beckmann` (the default) or `ggx`, one positive `alpha` (0.1;
+/// `alpha_u` and `alpha_v` only if equal: the model is isotropic),
+/// `sample_visible` accepted).
+fn rough_plastic(obj: &Obj) -> Result<Microfacet> {
+    let beckmann = match obj.string("distribution")?.as_deref().unwrap_or("beckmann") {
+        "beckmann" => true,
+        "ggx" => false,
+        d => return Err(obj.err_param("distribution", format!("= '{d}' is not 'beckmann' or 'ggx'"))),
+    };
+    obj.get("sample_visible");
+    let rough = |name: &str| -> Result<Option<f32>> {
+        match obj.scalar(name)? {
+            Some(a) if !(a.is_finite() && a > 0.0) => {
+                Err(obj.err_param(name, format!("= {a} must be a positive roughness")))
+            }
+            // As Mitsuba, no less than 1e-4.
+            a => Ok(a.map(|a| a.max(1e-4))),
+        }
+    };
+    let alpha = match rough("alpha")? {
+        Some(a) => a,
+        None => {
+            let (u, v) = (rough("alpha_u")?, rough("alpha_v")?);
+            if u != v {
+                return Err(obj.err_param(
+                    if u.is_some() { "alpha_u" } else { "alpha_v" },
+                    "differs from the other: 'roughplastic' is isotropic (give one 'alpha')",
+                ));
+            }
+            u.unwrap_or(0.1)
+        }
+    };
+    Ok(Microfacet {
+        alpha_u: alpha,
+        alpha_v: alpha,
+        beckmann,
+    })
 }
 
 /// An index of refraction: a number or one of Mitsuba's named materials.
