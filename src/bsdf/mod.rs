@@ -92,7 +92,10 @@ impl BsdfKind {
             BsdfKind::Diffuse { .. } | BsdfKind::RoughConductor { .. } | BsdfKind::RoughPlastic { .. } => {
                 Vec3::ZERO
             }
-            BsdfKind::Conductor { specular_reflectance } => *specular_reflectance,
+            BsdfKind::Conductor {
+                specular_reflectance,
+                fresnel,
+            } => *specular_reflectance * fresnel.at(cos_v),
             BsdfKind::Plastic {
                 specular_reflectance,
                 eta,
@@ -275,6 +278,7 @@ mod tests {
         assert_eq!(d.mirror(0.5), Vec3::ZERO);
         let m = BsdfKind::Conductor {
             specular_reflectance: Vec3::splat(0.9),
+            fresnel: crate::scene::Fresnel::Schlick { f0: glam::Vec3::ONE },
         };
         let b = BsdfKind::Blend {
             weight: 0.25,
@@ -308,5 +312,29 @@ mod tests {
             // Mitsuba's model uses a fitted Fdr, so it is conserving only to ~0.1%.
             assert!(total <= 1.005 && total > 0.85, "cos {cv}: albedo {total}");
         }
+    }
+
+    /// A smooth conductor reflects its Fresnel term at the angle (Mitsuba 3's
+    /// `conductor`): at normal incidence ((n - 1)^2 + k^2) / ((n + 1)^2 + k^2), rising
+    /// to all of `specular_reflectance` at grazing angles.
+    #[test]
+    fn a_smooth_conductor_follows_its_fresnel_term() {
+        let (n, k) = (0.2f32, 3.0f32);
+        let m = BsdfKind::Conductor {
+            specular_reflectance: Vec3::splat(0.5),
+            fresnel: crate::scene::Fresnel::Conductor {
+                eta: Vec3::splat(n),
+                k: Vec3::splat(k),
+            },
+        };
+        let r0 = ((n - 1.0).powi(2) + k * k) / ((n + 1.0).powi(2) + k * k);
+        assert!(
+            (m.mirror(1.0).x - 0.5 * r0).abs() < 1e-5,
+            "{} vs {}",
+            m.mirror(1.0).x,
+            0.5 * r0
+        );
+        assert!((m.mirror(1e-4).x - 0.5).abs() < 1e-2);
+        assert!(m.mirror(0.02).x > m.mirror(1.0).x);
     }
 }

@@ -135,15 +135,37 @@ impl Fingerprint {
         self.u8(u8::from(v));
     }
 
+    fn fresnel(&mut self, fresnel: &Fresnel) {
+        match *fresnel {
+            Fresnel::Conductor { eta, k } => {
+                self.u8(0);
+                self.vec3(eta);
+                self.vec3(k);
+            }
+            Fresnel::Schlick { f0 } => {
+                self.u8(1);
+                self.vec3(f0);
+            }
+            Fresnel::Dielectric { eta } => {
+                self.u8(2);
+                self.f32(eta);
+            }
+        }
+    }
+
     fn bsdf_kind(&mut self, kind: &BsdfKind) {
         match kind {
             BsdfKind::Diffuse { reflectance } => {
                 self.u8(0);
                 self.vec3(*reflectance);
             }
-            BsdfKind::Conductor { specular_reflectance } => {
+            BsdfKind::Conductor {
+                specular_reflectance,
+                fresnel,
+            } => {
                 self.u8(1);
                 self.vec3(*specular_reflectance);
+                self.fresnel(fresnel);
             }
             BsdfKind::Plastic {
                 diffuse_reflectance,
@@ -162,21 +184,7 @@ impl Fingerprint {
                 self.f32(lobe.distribution.alpha_u);
                 self.f32(lobe.distribution.alpha_v);
                 self.bool(lobe.distribution.beckmann);
-                match lobe.fresnel {
-                    Fresnel::Conductor { eta, k } => {
-                        self.u8(0);
-                        self.vec3(eta);
-                        self.vec3(k);
-                    }
-                    Fresnel::Schlick { f0 } => {
-                        self.u8(1);
-                        self.vec3(f0);
-                    }
-                    Fresnel::Dielectric { eta } => {
-                        self.u8(2);
-                        self.f32(eta);
-                    }
-                }
+                self.fresnel(&lobe.fresnel);
                 self.vec3(lobe.scale);
             }
             BsdfKind::Dielectric {

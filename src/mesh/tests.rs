@@ -381,6 +381,7 @@ fn a_mirror_keeps_no_radiosity() {
     let v = Vec3::new;
     let mirror = crate::scene::BsdfKind::Conductor {
         specular_reflectance: Vec3::ONE,
+        fresnel: crate::scene::Fresnel::Schlick { f0: glam::Vec3::ONE },
     };
     let floor = quad([v(0., 0., 0.), v(4., 0., 0.), v(4., 4., 0.), v(0., 4., 0.)]);
     let s = crate::testutil::scene_with(vec![(floor, mirror)], vec![], &[]);

@@ -721,6 +721,7 @@ mod tests {
         use crate::testutil::{box_outside, scene_with};
         let mirror = BsdfKind::Conductor {
             specular_reflectance: Vec3::ONE,
+            fresnel: crate::scene::Fresnel::Schlick { f0: glam::Vec3::ONE },
         };
         let cube = |c: Vec3, h: f32| {
             let mut faces = box_outside(c - Vec3::splat(h), c + Vec3::splat(h));

@@ -854,6 +854,7 @@ mod tests {
             square(10.0, 0.0, false),
             BsdfKind::Conductor {
                 specular_reflectance: Vec3::splat(0.8),
+                fresnel: crate::scene::Fresnel::Schlick { f0: glam::Vec3::ONE },
             },
         );
         let lamp = (

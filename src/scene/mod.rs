@@ -33,10 +33,13 @@ pub enum BsdfKind {
         /// Diffuse reflectance rho.
         reflectance: Rgb,
     },
-    /// Smooth mirror (`conductor` with `material="none"`).
+    /// Smooth mirror (`conductor`): `specular_reflectance` times its Fresnel term at
+    /// the angle of incidence (1 for Mitsuba's `material="none"`).
     Conductor {
-        /// Mirror reflectance.
+        /// Scale of the reflection.
         specular_reflectance: Rgb,
+        /// The Fresnel term.
+        fresnel: Fresnel,
     },
     /// Diffuse base under a smooth dielectric coating (`plastic`), as in Mitsuba 3.
     Plastic {
@@ -262,7 +265,12 @@ impl Bsdf {
                     },
                     TexField::Diffuse,
                 ) => *diffuse_reflectance = value.clamp(Vec3::ZERO, Vec3::ONE),
-                (BsdfKind::Conductor { specular_reflectance }, TexField::Specular)
+                (
+                    BsdfKind::Conductor {
+                        specular_reflectance, ..
+                    },
+                    TexField::Specular,
+                )
                 | (
                     BsdfKind::Plastic {
                         specular_reflectance, ..

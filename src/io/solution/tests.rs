@@ -284,6 +284,7 @@ fn fingerprint_is_stable_and_sees_what_matters() {
         differs(&|s| {
             s.bsdfs[0].kind = BsdfKind::Conductor {
                 specular_reflectance: Vec3::new(0.5, 0.4, 0.3),
+                fresnel: crate::scene::Fresnel::Schlick { f0: Vec3::ONE },
             }
         }),
         differs(&|s| s.bsdfs[1].twosided = false),

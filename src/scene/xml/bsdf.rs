@@ -47,8 +47,8 @@ impl Loader {
                 (BsdfKind::RoughConductor { lobe }, false)
             }
             "conductor" => {
-                let (kind, f0) = self.conductor(s, c, &obj)?;
-                slot("specular_reflectance", TexField::Specular, f0);
+                let kind = self.conductor(s, c, &obj)?;
+                slot("specular_reflectance", TexField::Specular, Vec3::ONE);
                 (kind, false)
             }
             "plastic" | "roughplastic" => {
@@ -352,28 +352,15 @@ impl Loader {
         })
     }
 
-    /// A conductor as a mirror of constant reflectance (its Fresnel term at normal
-    /// incidence, which multiplies `specular_reflectance`), and that reflectance.
-    fn conductor(&mut self, s: Src, c: Node, obj: &Obj) -> Result<(BsdfKind, Vec3)> {
-        let scale = obj.reflectance("specular_reflectance", 1.0)?;
+    /// A smooth conductor: a mirror of `specular_reflectance` times its Fresnel term
+    /// at the angle of incidence, as Mitsuba 3's `conductor`.
+    fn conductor(&mut self, s: Src, c: Node, obj: &Obj) -> Result<BsdfKind> {
+        let specular_reflectance = obj.reflectance("specular_reflectance", 1.0)?;
         let fresnel = self.conductor_fresnel(s, c, obj)?;
-        let f0 = fresnel.f0();
-        if f0 != Vec3::ONE {
-            self.warn(
-                s,
-                c,
-                format!(
-                    "smooth conductor rendered as a mirror of constant reflectance {f0} (its \
-                     value at normal incidence)"
-                ),
-            );
-        }
-        Ok((
-            BsdfKind::Conductor {
-                specular_reflectance: scale * f0,
-            },
-            f0,
-        ))
+        Ok(BsdfKind::Conductor {
+            specular_reflectance,
+            fresnel,
+        })
     }
 
     /// The nested bsdfs (elements or refs) of `obj`, in order; other nested

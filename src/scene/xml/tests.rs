@@ -527,7 +527,8 @@ fn refs_reuse_one_bsdf_entry() {
     assert_eq!(
         l.scene.bsdfs[sh[2].bsdf as usize].kind,
         BsdfKind::Conductor {
-            specular_reflectance: Vec3::ONE
+            specular_reflectance: Vec3::ONE,
+            fresnel: crate::scene::Fresnel::Schlick { f0: glam::Vec3::ONE },
         }
     );
     assert_eq!(
@@ -612,7 +613,8 @@ fn twosided_blend_and_plastic() {
             weight: 0.25,
             a: Box::new(red),
             b: Box::new(BsdfKind::Conductor {
-                specular_reflectance: Vec3::splat(0.9)
+                specular_reflectance: Vec3::splat(0.9),
+                fresnel: crate::scene::Fresnel::Schlick { f0: glam::Vec3::ONE },
             })
         }
     );
@@ -663,10 +665,11 @@ fn rough_and_unsupported_bsdfs_warn() {
     assert_eq!((lobe.distribution.alpha_u, lobe.distribution.alpha_v), (0.1, 0.1));
     assert_eq!(lobe.fresnel, crate::scene::Fresnel::Schlick { f0: Vec3::ONE });
     assert_eq!(*kinds[2], Bsdf::default().kind);
-    let BsdfKind::Conductor { specular_reflectance } = kinds[3] else {
+    let BsdfKind::Conductor { fresnel, .. } = kinds[3] else {
         panic!()
     };
-    assert!(specular_reflectance.x > specular_reflectance.z);
+    // Gold, by Schlick's curve from its reflectance at normal incidence.
+    assert!(fresnel.f0().x > fresnel.f0().z);
 }
 
 #[test]
