@@ -159,6 +159,21 @@ impl SurfacePoint {
         self
     }
 
+    /// How opaque the material is here (`mask`'s opacity; 1 without a mask).
+    pub fn opacity(&self, scene: &Scene, bsdf: &Bsdf) -> f32 {
+        bsdf.textures
+            .iter()
+            .find(|t| t.field == crate::scene::TexField::Opacity)
+            .and_then(|t| scene.textures.get(t.texture as usize))
+            .map_or(1.0, |t| t.eval(self.uv(scene)).x.clamp(0.0, 1.0))
+    }
+
+    /// Whether a ray that meets this point goes on through it (a `mask`ed surface,
+    /// drawn by its opacity from `u` in [0, 1)).
+    pub fn passes(&self, scene: &Scene, bsdf: &Bsdf, u: f32) -> bool {
+        bsdf.masked() && u >= self.opacity(scene, bsdf)
+    }
+
     /// A ray leaving this point in `dir` (on the side `dir` points to), ending at
     /// distance `tmax` from the point.
     pub fn spawn(&self, dir: Vec3, tmax: f32) -> Ray {
@@ -258,7 +273,18 @@ pub fn pane_transmittance(scene: &Scene, accel: &dyn Accel, ray: &Ray) -> f32 {
         let sp = SurfacePoint::new(scene, &r, &hit);
         let cos = sp.ng.dot(r.dir) / r.dir.length();
         let bsdf = &scene.bsdfs[scene.shapes[hit.shape as usize].bsdf as usize];
-        share *= bsdf.kind.shadow_transmittance(cos).unwrap_or(0.0);
+        // A pane's transmittance, times the share a mask lets through.
+        let masked = bsdf.masked();
+        let pane = bsdf
+            .kind
+            .shadow_transmittance(cos)
+            .unwrap_or(if masked { 1.0 } else { 0.0 });
+        let open = if masked {
+            1.0 - sp.opacity(scene, bsdf)
+        } else {
+            1.0
+        };
+        share *= pane * open;
         if share <= 0.0 {
             return 0.0;
         }

@@ -222,6 +222,15 @@ impl<'a> Tracer<'a> {
             if !sp.front && !bsdf.twosided {
                 return;
             }
+            if bsdf.masked() {
+                let [u, _, _] = next();
+                if sp.passes(self.scene, bsdf, u) {
+                    // Through a mask's open part, as shadow rays go (the state kept).
+                    origin = sp.p;
+                    normal = sp.ng;
+                    continue;
+                }
+            }
             let outward = if sp.front { sp.ns } else { -sp.ns };
             if let Some(g) = bsdf.kind.split(-dir, outward) {
                 // Glass: reflected or transmitted by their shares of the power.

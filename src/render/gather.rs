@@ -521,9 +521,13 @@ impl Gather {
                     e += through * radiosity;
                 }
             }
+            let s = derive(derive(seed, Stream::Sample(k)), Stream::Sample(bounce));
+            if y.passes(ctx.scene, bsdf, crate::sampling::uniform2(s).x) {
+                ray = y.spawn(ray.dir, f32::INFINITY);
+                continue;
+            }
             if bsdf.kind.is_glass() {
                 // Glass: on through one of its two rays, drawn by their weights.
-                let s = derive(derive(seed, Stream::Sample(k)), Stream::Sample(bounce));
                 let Some((next, weight, _)) =
                     super::glass::rays(&bsdf.kind, &y, ray.dir, super::glass::GLASS_SPLIT_DEPTH, s).pop()
                 else {

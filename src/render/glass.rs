@@ -191,4 +191,74 @@ mod tests {
         s2.lights = vec![above];
         assert_eq!(look_down(&s2, Vec3::new(0.0, 0.0, 0.5), 6), Vec3::ZERO);
     }
+
+    /// A mask of opacity 0.25 over a floor, both under a point light: the floor is
+    /// lit through the mask's open three quarters (a shadow ray's dimming), and a
+    /// ray looking down meets the mask a quarter of the time (drawn per ray: the mean
+    /// of many rays).
+    #[test]
+    fn a_mask_lets_its_open_share_through() {
+        use crate::scene::{TexField, TexSlot, Texture};
+        let (h, i) = (2.0f32, 10.0f32);
+        let mut s = scene_with(
+            vec![
+                (square(-10.0, 10.0, -10.0, 10.0, 0.0, false), floor()),
+                (square(-1.0, 1.0, -1.0, 1.0, 1.0, false), floor()),
+            ],
+            vec![Light::Point {
+                position: Vec3::new(0.0, 0.0, h),
+                intensity: Vec3::splat(i),
+            }],
+            &[],
+        );
+        s.textures
+            .push(Texture::from_linear("o", 1, 1, vec![[0.25; 3]]).unwrap());
+        s.bsdfs[1].textures.push(TexSlot {
+            path: Vec::new(),
+            field: TexField::Opacity,
+            texture: 0,
+            factor: Vec3::ONE,
+        });
+        let below = look_down(&s, Vec3::new(0.0, 0.0, 0.5), 4);
+        let lit_floor = 0.5 / PI * i / (h * h);
+        assert!(
+            (below.x - 0.75 * lit_floor).abs() < 1e-5,
+            "{below} vs {}",
+            0.75 * lit_floor
+        );
+        let settings = Settings {
+            method: Method::Direct,
+            view: 0,
+            width: 1,
+            height: 1,
+            spp: 1,
+            seed: 0,
+            area_samples: 1,
+            max_depth: 4,
+            gather: 0,
+            filter: Filter::Box,
+            sampler: crate::render::Sampler::Uniform,
+            refine: crate::render::Refine::default(),
+        };
+        let bvh = Bvh::build(&s);
+        let tracer = Tracer::new(&s, &bvh, &settings);
+        let n = 4000;
+        let mean: f32 = (0..n)
+            .map(|k| {
+                let ray = Ray::new(Vec3::new(0.0, 0.0, 1.5), -Vec3::Z);
+                tracer
+                    .radiance(
+                        &ray,
+                        0,
+                        crate::sampling::derive(k, crate::sampling::Stream::Path),
+                        &mut Counters::default(),
+                    )
+                    .x
+            })
+            .sum::<f32>()
+            / n as f32;
+        let top = 0.5 / PI * i / 1.0;
+        let expect = 0.25 * top + 0.75 * 0.75 * lit_floor;
+        assert!((mean - expect).abs() < 0.04 * expect, "{mean} vs {expect}");
+    }
 }

@@ -12,7 +12,7 @@ use crate::bsdf::microfacet::Frame;
 use crate::emitters::{group_point, SampledLight};
 use crate::interaction::{pane_transmittance, reflect, transmittance, SurfacePoint};
 use crate::mesh::RadiosityMesh;
-use crate::sampling::{derive, stratum, Stream};
+use crate::sampling::{derive, stratum, uniform2, Stream};
 use crate::scene::{Bsdf, BsdfKind, Glossy, Rgb, Scene};
 use crate::selection::{Pick, Selection};
 
@@ -156,6 +156,11 @@ impl<'a> Tracer<'a> {
             }
         }
         let (bsdf, kind) = sp.material(self.scene);
+        let on = derive(seed, Stream::Transmission);
+        if sp.passes(self.scene, bsdf, uniform2(on).x) {
+            // Through a mask's open part, as if the surface were not there.
+            return self.trace(&sp.spawn(ray.dir, f32::INFINITY), depth, on, counters, sib, emit);
+        }
         let sp = sp.bumped(self.scene, bsdf);
         if kind.is_glass() {
             if depth < self.max_depth {
@@ -388,6 +393,10 @@ impl<'a> Tracer<'a> {
             _ => None,
         };
         let (bsdf, kind) = sp.material(self.scene);
+        let on = derive(seed, Stream::Transmission);
+        if sp.passes(self.scene, bsdf, uniform2(on).x) {
+            return self.reflected(&sp.spawn(ray.dir, f32::INFINITY), depth, on, counters);
+        }
         let sp = sp.bumped(self.scene, bsdf);
         if kind.is_glass() {
             let mut l = Vec3::ZERO;

@@ -215,6 +215,9 @@ pub enum TexField {
     Bump,
     /// The shading normal in the surface's tangent frame, 2 x texel - 1 (`normalmap`).
     Normal,
+    /// How opaque the surface is (`mask`'s `opacity`, the first channel): rays pass
+    /// through the rest.
+    Opacity,
 }
 
 /// A textured parameter of a material: where in the (blended) model it sits, which
@@ -233,6 +236,11 @@ pub struct TexSlot {
 }
 
 impl Bsdf {
+    /// Whether a `mask` makes parts of the surface open.
+    pub fn masked(&self) -> bool {
+        self.textures.iter().any(|t| t.field == TexField::Opacity)
+    }
+
     /// The reflection model at surface parameters `uv`: `kind` with its textured
     /// parameters looked up there (`kind` itself when none is).
     pub fn kind_at(&self, uv: Vec2, textures: &[Texture]) -> Cow<'_, BsdfKind> {
@@ -505,12 +513,13 @@ impl Scene {
     }
 
     /// Whether shadow rays pass through shape `s` (a thin pane of glass,
-    /// `thindielectric`: light crosses it unbent, so its shadow is only a dimming).
+    /// `thindielectric`: light crosses it unbent, so its shadow is only a dimming; or
+    /// a `mask`ed surface, where it is not opaque).
     pub fn passes_shadows(&self, s: u32) -> bool {
         self.shapes
             .get(s as usize)
             .and_then(|shape| self.bsdfs.get(shape.bsdf as usize))
-            .is_some_and(|b| matches!(b.kind, BsdfKind::Dielectric { thin: true, .. }))
+            .is_some_and(|b| matches!(b.kind, BsdfKind::Dielectric { thin: true, .. }) || b.masked())
     }
 
     /// A name for light `i` in tables and messages: its `id` in the scene file, the

@@ -204,17 +204,31 @@ impl Loader {
                 (first.kind, first.twosided)
             }
             "mask" => {
-                obj.mark_all();
                 let inner = self.nested_bsdfs(&obj)?;
                 let Some(first) = inner.into_iter().next() else {
-                    return Err(s.err(c, format!("bsdf '{ty}' needs a nested bsdf")));
+                    return Err(s.err(c, "bsdf 'mask' needs a nested bsdf"));
                 };
-                self.warn(
-                    s,
-                    c,
-                    format!("bsdf '{ty}' is not supported: its nested bsdf is used alone"),
-                );
-                textures = first.textures;
+                // The opacity: a bitmap, or a number (a one-texel image of it).
+                let texture = match obj.texture_image("opacity") {
+                    Some(t) => t,
+                    None => {
+                        let o = obj.scalar("opacity")?.unwrap_or(0.5);
+                        if !(0.0..=1.0).contains(&o) {
+                            return Err(obj.err_param("opacity", format!("= {o} is outside [0, 1]")));
+                        }
+                        let t = crate::scene::Texture::from_linear("opacity", 1, 1, vec![[o; 3]])
+                            .map_err(|m| obj.err_param("opacity", m))?;
+                        self.scene.textures.push(t);
+                        self.scene.textures.len() as u32 - 1
+                    }
+                };
+                textures = first.textures.clone();
+                textures.push(TexSlot {
+                    path: Vec::new(),
+                    field: TexField::Opacity,
+                    texture,
+                    factor: Vec3::ONE,
+                });
                 (first.kind, first.twosided)
             }
             "principled" | "principledthin" => {

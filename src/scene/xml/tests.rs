@@ -1618,3 +1618,26 @@ fn a_rough_plastic_takes_its_reflectances_from_bitmaps() {
         at(0.75)
     );
 }
+
+/// `mask`: its opacity (a number, as a one-texel image, or a bitmap) over its nested
+/// bsdf; shadow rays pass masked shapes (dimmed by the open share); an opacity
+/// outside [0, 1] is an error naming its line.
+#[test]
+fn a_mask_keeps_its_bsdf_and_its_opacity() {
+    use crate::scene::TexField;
+    let l = ok(&[
+        r#"<shape type="cube"><bsdf type="mask"><float name="opacity" value="0.3"/><bsdf type="diffuse"/></bsdf></shape>"#,
+    ]);
+    assert!(!l.warnings.iter().any(|w| w.contains("mask")), "{:?}", l.warnings);
+    let b = &l.scene.bsdfs[l.scene.shapes[0].bsdf as usize];
+    assert!(b.masked() && b.textures[0].field == TexField::Opacity);
+    assert!((l.scene.textures[b.textures[0].texture as usize].mean.x - 0.3).abs() < 1e-6);
+    assert!(l.scene.passes_shadows(0));
+    let e = err(
+        &[
+            r#"<shape type="cube"><bsdf type="mask"><float name="opacity" value="1.5"/><bsdf type="diffuse"/></bsdf></shape>"#,
+        ],
+        3,
+    );
+    assert!(e.contains("opacity"), "{e}");
+}
