@@ -87,9 +87,10 @@ mod tests {
         }
     }
 
-    /// Radiance arriving at `from` looking straight down (direct light only).
-    fn look_down(s: &Scene, from: Vec3, max_depth: u32) -> Rgb {
-        let settings = Settings {
+    /// One-sample settings of the direct method, mirrors and glass followed
+    /// `max_depth` bounces.
+    fn direct(max_depth: u32) -> Settings {
+        Settings {
             method: Method::Direct,
             view: 0,
             width: 1,
@@ -102,9 +103,13 @@ mod tests {
             filter: Filter::Box,
             sampler: crate::render::Sampler::Uniform,
             refine: crate::render::Refine::default(),
-        };
+        }
+    }
+
+    /// Radiance arriving at `from` looking straight down (direct light only).
+    fn look_down(s: &Scene, from: Vec3, max_depth: u32) -> Rgb {
         let bvh = Bvh::build(s);
-        let tracer = Tracer::new(s, &bvh, &settings);
+        let tracer = Tracer::new(s, &bvh, &direct(max_depth));
         tracer.radiance(&Ray::new(from, -Vec3::Z), 0, 1, &mut Counters::default())
     }
 
@@ -226,22 +231,8 @@ mod tests {
             "{below} vs {}",
             0.75 * lit_floor
         );
-        let settings = Settings {
-            method: Method::Direct,
-            view: 0,
-            width: 1,
-            height: 1,
-            spp: 1,
-            seed: 0,
-            area_samples: 1,
-            max_depth: 4,
-            gather: 0,
-            filter: Filter::Box,
-            sampler: crate::render::Sampler::Uniform,
-            refine: crate::render::Refine::default(),
-        };
         let bvh = Bvh::build(&s);
-        let tracer = Tracer::new(&s, &bvh, &settings);
+        let tracer = Tracer::new(&s, &bvh, &direct(4));
         let n = 4000;
         let mean: f32 = (0..n)
             .map(|k| {

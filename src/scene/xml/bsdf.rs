@@ -277,24 +277,10 @@ impl Loader {
     /// Fresnel term from `eta`/`k` or a named `material`, `specular_reflectance`;
     /// Mitsuba 0.6's `ext_eta` divides both).
     fn rough_conductor(&mut self, s: Src, c: Node, obj: &Obj) -> Result<Glossy> {
-        let beckmann = match obj.string("distribution")?.as_deref().unwrap_or("beckmann") {
-            "beckmann" => true,
-            "ggx" => false,
-            d => return Err(obj.err_param("distribution", format!("= '{d}' is not 'beckmann' or 'ggx'"))),
-        };
-        obj.get("sample_visible");
-        let rough = |name: &str| -> Result<Option<f32>> {
-            match obj.scalar(name)? {
-                Some(a) if !(a.is_finite() && a > 0.0) => {
-                    Err(obj.err_param(name, format!("= {a} must be a positive roughness")))
-                }
-                // As Mitsuba, no less than 1e-4 (a smooth conductor is `conductor`).
-                a => Ok(a.map(|a| a.max(1e-4))),
-            }
-        };
-        let (alpha_u, alpha_v) = match rough("alpha")? {
+        let (beckmann, [alpha, u, v]) = distribution(obj)?;
+        let (alpha_u, alpha_v) = match alpha {
             Some(a) => (a, a),
-            None => (rough("alpha_u")?.unwrap_or(0.1), rough("alpha_v")?.unwrap_or(0.1)),
+            None => (u.unwrap_or(0.1), v.unwrap_or(0.1)),
         };
         if alpha_u != alpha_v {
             self.warn(
@@ -450,25 +436,10 @@ impl Loader {
 /// `alpha_u` and `alpha_v` only if equal: the model is isotropic),
 /// `sample_visible` accepted).
 fn rough_plastic(obj: &Obj) -> Result<Microfacet> {
-    let beckmann = match obj.string("distribution")?.as_deref().unwrap_or("beckmann") {
-        "beckmann" => true,
-        "ggx" => false,
-        d => return Err(obj.err_param("distribution", format!("= '{d}' is not 'beckmann' or 'ggx'"))),
-    };
-    obj.get("sample_visible");
-    let rough = |name: &str| -> Result<Option<f32>> {
-        match obj.scalar(name)? {
-            Some(a) if !(a.is_finite() && a > 0.0) => {
-                Err(obj.err_param(name, format!("= {a} must be a positive roughness")))
-            }
-            // As Mitsuba, no less than 1e-4.
-            a => Ok(a.map(|a| a.max(1e-4))),
-        }
-    };
-    let alpha = match rough("alpha")? {
+    let (beckmann, [alpha, u, v]) = distribution(obj)?;
+    let alpha = match alpha {
         Some(a) => a,
         None => {
-            let (u, v) = (rough("alpha_u")?, rough("alpha_v")?);
             if u != v {
                 return Err(obj.err_param(
                     if u.is_some() { "alpha_u" } else { "alpha_v" },
@@ -483,6 +454,28 @@ fn rough_plastic(obj: &Obj) -> Result<Microfacet> {
         alpha_v: alpha,
         beckmann,
     })
+}
+
+/// A microfacet distribution's parameters as the rough plugins read them:
+/// `distribution` (`beckmann`, the default, or `ggx`: Beckmann or not) and
+/// `alpha`, `alpha_u`, `alpha_v` where given (positive; as in Mitsuba, no less than
+/// 1e-4); `sample_visible` accepted.
+fn distribution(obj: &Obj) -> Result<(bool, [Option<f32>; 3])> {
+    let beckmann = match obj.string("distribution")?.as_deref().unwrap_or("beckmann") {
+        "beckmann" => true,
+        "ggx" => false,
+        d => return Err(obj.err_param("distribution", format!("= '{d}' is not 'beckmann' or 'ggx'"))),
+    };
+    obj.get("sample_visible");
+    let rough = |name: &str| -> Result<Option<f32>> {
+        match obj.scalar(name)? {
+            Some(a) if !(a.is_finite() && a > 0.0) => {
+                Err(obj.err_param(name, format!("= {a} must be a positive roughness")))
+            }
+            a => Ok(a.map(|a| a.max(1e-4))),
+        }
+    };
+    Ok((beckmann, [rough("alpha")?, rough("alpha_u")?, rough("alpha_v")?]))
 }
 
 /// An index of refraction: a number or one of Mitsuba's named materials.
