@@ -51,6 +51,17 @@ pub fn thin_reflectance(cos: f32, eta: f32) -> f32 {
 }
 
 impl BsdfKind {
+    /// Clear glass of relative index `eta`, thick or a thin pane (Mitsuba's defaults
+    /// for the reflectance and transmittance scales: 1).
+    pub fn clear_glass(eta: f32, thin: bool) -> BsdfKind {
+        BsdfKind::Dielectric {
+            eta,
+            specular_reflectance: Vec3::ONE,
+            specular_transmittance: Vec3::ONE,
+            thin,
+        }
+    }
+
     /// Whether the material is glass (reflects and transmits).
     pub fn is_glass(&self) -> bool {
         matches!(self, BsdfKind::Dielectric { .. })
@@ -118,12 +129,7 @@ mod tests {
     use super::*;
 
     fn glass(thin: bool) -> BsdfKind {
-        BsdfKind::Dielectric {
-            eta: 1.5,
-            specular_reflectance: Vec3::ONE,
-            specular_transmittance: Vec3::ONE,
-            thin,
-        }
+        BsdfKind::clear_glass(1.5, thin)
     }
 
     #[test]

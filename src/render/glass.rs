@@ -67,18 +67,13 @@ mod tests {
     use crate::bsdf::glass::thin_reflectance;
     use crate::render::counters::Counters;
     use crate::render::shading::Tracer;
-    use crate::render::{Filter, Method, Settings};
+    use crate::render::Settings;
     use crate::scene::{Light, Scene};
     use crate::testutil::{scene_with, square};
     use std::f32::consts::PI;
 
     fn glass(thin: bool) -> BsdfKind {
-        BsdfKind::Dielectric {
-            eta: 1.5,
-            specular_reflectance: Vec3::ONE,
-            specular_transmittance: Vec3::ONE,
-            thin,
-        }
+        BsdfKind::clear_glass(1.5, thin)
     }
 
     fn floor() -> BsdfKind {
@@ -90,20 +85,7 @@ mod tests {
     /// One-sample settings of the direct method, mirrors and glass followed
     /// `max_depth` bounces.
     fn direct(max_depth: u32) -> Settings {
-        Settings {
-            method: Method::Direct,
-            view: 0,
-            width: 1,
-            height: 1,
-            spp: 1,
-            seed: 0,
-            area_samples: 1,
-            max_depth,
-            gather: 0,
-            filter: Filter::Box,
-            sampler: crate::render::Sampler::Uniform,
-            refine: crate::render::Refine::default(),
-        }
+        Settings::direct_test(1, max_depth)
     }
 
     /// Radiance arriving at `from` looking straight down (direct light only).

@@ -236,4 +236,26 @@ fn render_uniform(tracer: &Tracer, camera: &Camera, settings: &Settings, progres
 }
 
 #[cfg(test)]
+impl Settings {
+    /// One sample of the direct method, `area_samples` per area light, mirrors and
+    /// glass followed `max_depth` bounces (the shading tests' settings).
+    pub(crate) fn direct_test(area_samples: u32, max_depth: u32) -> Settings {
+        Settings {
+            method: Method::Direct,
+            view: 0,
+            width: 1,
+            height: 1,
+            spp: 1,
+            seed: 0,
+            area_samples,
+            max_depth,
+            gather: 0,
+            filter: Filter::Box,
+            sampler: Sampler::Uniform,
+            refine: Refine::default(),
+        }
+    }
+}
+
+#[cfg(test)]
 mod tests;

@@ -567,7 +567,6 @@ mod tests {
     use super::*;
     use crate::accel::Bvh;
     use crate::geometry::{Patch, TriMesh};
-    use crate::render::{Filter, Method};
     use crate::scene::{BsdfKind, Light, Scene};
     use std::f32::consts::PI;
 
@@ -614,20 +613,7 @@ mod tests {
     }
 
     fn settings(area_samples: u32) -> Settings {
-        Settings {
-            method: Method::Direct,
-            view: 0,
-            width: 1,
-            height: 1,
-            spp: 1,
-            seed: 0,
-            area_samples,
-            max_depth: 4,
-            gather: 0,
-            filter: Filter::Box,
-            sampler: crate::render::Sampler::Uniform,
-            refine: crate::render::Refine::default(),
-        }
+        Settings::direct_test(area_samples, 4)
     }
 
     const RHO: f32 = 0.5;
