@@ -595,10 +595,7 @@ impl Solver<'_> {
                 let (c, r) = crate::emitters::infinite::scene_sphere(self.scene);
                 vec![ShootPoint::point(c - direction * (1e4 * r), irradiance)]
             }
-            Light::Environment { .. } => {
-                let sky = SampledLight::prepare(self.scene, &self.scene.lights[l as usize]);
-                sky_cells(self.scene, sky.sky(), count * SKY_CELLS_PER_SAMPLE)
-            }
+            Light::Environment { .. } => sky_cells(self.scene, count * SKY_CELLS_PER_SAMPLE),
         }
     }
 

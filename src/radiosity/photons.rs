@@ -236,7 +236,7 @@ impl<'a> Tracer<'a> {
                 // Glass: reflected or transmitted by their shares of the power.
                 let (pr, pt) = (mean(g.reflect).min(1.0), mean(g.power).min(1.0));
                 let [u, _, _] = next();
-                let thin = bsdf.kind.shadow_transmittance(1.0).is_some();
+                let thin = matches!(bsdf.kind, crate::scene::BsdfKind::Dielectric { thin: true, .. });
                 if u < pr {
                     power *= g.reflect / pr;
                     dir = reflect(dir, sp.ns);

@@ -234,12 +234,10 @@ impl ShootPoint {
 /// in, with pi times the sky's mean radiance over those directions as radiosity (a
 /// receiver's form factor to a cell is then its solid angle times the cosine over
 /// pi). Shadow rays aim at points of their own in each cell, as at an area light's.
-pub fn sky_cells(
-    scene: &crate::scene::Scene,
-    sky: Option<&crate::emitters::Sky>,
-    count: u32,
-) -> Vec<ShootPoint> {
-    let Some(sky) = sky else { return Vec::new() };
+pub fn sky_cells(scene: &crate::scene::Scene, count: u32) -> Vec<ShootPoint> {
+    if scene.environment().is_none() {
+        return Vec::new();
+    }
     let (c, r) = crate::emitters::infinite::scene_sphere(scene);
     let d = 1e4 * r;
     let k = ((count as f32 / 6.0).sqrt().round() as u32).max(1);
@@ -271,7 +269,7 @@ pub fn sky_cells(
                     for q in 0..16 {
                         let (fs, ft) = ((q % 4) as f32 + 0.5, (q / 4) as f32 + 0.5);
                         let p = at(s0 + fs / 4.0, t0 + ft / 4.0);
-                        l += sky.radiance_towards((p - c).normalize());
+                        l += scene.sky((p - c).normalize());
                     }
                     let radiosity = l / 16.0 * std::f32::consts::PI;
                     out.push(ShootPoint {

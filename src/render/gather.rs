@@ -521,15 +521,16 @@ impl Gather {
                     e += through * radiosity;
                 }
             }
-            let s = derive(derive(seed, Stream::Sample(k)), Stream::Sample(bounce));
-            if y.passes(ctx.scene, bsdf, crate::sampling::uniform2(s).x) {
+            // This bounce's draws (masks and glass only: off the hot path otherwise).
+            let s = || derive(derive(seed, Stream::Sample(k)), Stream::Sample(bounce));
+            if bsdf.masked() && y.passes(ctx.scene, bsdf, crate::sampling::uniform2(s()).x) {
                 ray = y.spawn(ray.dir, f32::INFINITY);
                 continue;
             }
             if bsdf.kind.is_glass() {
                 // Glass: on through one of its two rays, drawn by their weights.
                 let Some((next, weight, _)) =
-                    super::glass::rays(&bsdf.kind, &y, ray.dir, super::glass::GLASS_SPLIT_DEPTH, s).pop()
+                    super::glass::rays(&bsdf.kind, &y, ray.dir, super::glass::GLASS_SPLIT_DEPTH, s()).pop()
                 else {
                     break;
                 };

@@ -156,10 +156,12 @@ impl<'a> Tracer<'a> {
             }
         }
         let (bsdf, kind) = sp.material(self.scene);
-        let on = derive(seed, Stream::Transmission);
-        if sp.passes(self.scene, bsdf, uniform2(on).x) {
-            // Through a mask's open part, as if the surface were not there.
-            return self.trace(&sp.spawn(ray.dir, f32::INFINITY), depth, on, counters, sib, emit);
+        if bsdf.masked() {
+            let on = derive(seed, Stream::Transmission);
+            if sp.passes(self.scene, bsdf, uniform2(on).x) {
+                // Through a mask's open part, as if the surface were not there.
+                return self.trace(&sp.spawn(ray.dir, f32::INFINITY), depth, on, counters, sib, emit);
+            }
         }
         let sp = sp.bumped(self.scene, bsdf);
         if kind.is_glass() {
@@ -393,9 +395,11 @@ impl<'a> Tracer<'a> {
             _ => None,
         };
         let (bsdf, kind) = sp.material(self.scene);
-        let on = derive(seed, Stream::Transmission);
-        if sp.passes(self.scene, bsdf, uniform2(on).x) {
-            return self.reflected(&sp.spawn(ray.dir, f32::INFINITY), depth, on, counters);
+        if bsdf.masked() {
+            let on = derive(seed, Stream::Transmission);
+            if sp.passes(self.scene, bsdf, uniform2(on).x) {
+                return self.reflected(&sp.spawn(ray.dir, f32::INFINITY), depth, on, counters);
+            }
         }
         let sp = sp.bumped(self.scene, bsdf);
         if kind.is_glass() {
@@ -518,7 +522,14 @@ impl<'a> Tracer<'a> {
             let f = h.kind.diffuse_brdf(cos_l, h.cos_v) * s.value * (cos_l * share);
             unoccluded += f;
             if visible {
-                acc += f * pane_transmittance(self.scene, self.accel, &sp.shadow_ray(s.point, s.normal));
+                // Dimmed by the thin panes on the way (the ray made again only if
+                // the scene has any).
+                acc += match self.accel.panes() {
+                    Some(_) => {
+                        f * pane_transmittance(self.scene, self.accel, &sp.shadow_ray(s.point, s.normal))
+                    }
+                    None => f,
+                };
             }
         }
         counters.count_source(li, cast, saved);

@@ -377,11 +377,6 @@ impl Light {
         }
     }
 
-    /// Whether the light is infinitely far (directional or environment).
-    pub fn is_infinite(&self) -> bool {
-        matches!(self, Light::Directional { .. } | Light::Environment { .. })
-    }
-
     /// The radiance an environment sends along `-dir` (seen looking along `dir`,
     /// world space); zero for other lights. Mitsuba's mapping: u = atan2(x, -z) / 2pi,
     /// v = acos(y) / pi in the map's frame.
