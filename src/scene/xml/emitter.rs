@@ -1,11 +1,12 @@
-//! Emitter plugins: `point`, `spot`, `directional`, `constant`, `envmap`, and `area`
-//! (nested inside a shape).
+//! Emitter plugins: `point`, `spot`, `directional`, `constant`, `envmap`, `sunsky`, and
+//! `area` (nested inside a shape).
 
 use glam::{Mat4, Vec3};
 use roxmltree::Node;
 
 use super::document::{Loader, Src};
 use super::properties::Target;
+use crate::scene::sunsky::{self, SunPlace, SunSky};
 use crate::scene::{Light, Rgb, Texture};
 use crate::Result;
 
@@ -182,8 +183,157 @@ impl Loader {
                 });
                 self.name_light(c);
             }
+            "sunsky" => self.sunsky(s, c)?,
             t => self.warn(s, c, format!("emitter '{t}' is not supported; ignored")),
         }
         Ok(())
     }
+
+    /// `sunsky`: the Hosek-Wilkie sky becomes an `envmap` ([`SunSky::bake`]) and its sun
+    /// a `directional` light of the disk's irradiance, both in the emitter's frame
+    /// (+z up, `to_world`).
+    fn sunsky(&mut self, s: Src, c: Node) -> Result<()> {
+        if self.scene.environment().is_some() {
+            return Err(s.err(
+                c,
+                "a scene has at most one environment emitter ('constant', 'envmap' or 'sunsky')",
+            ));
+        }
+        let obj = self.collect(s, c, "emitter 'sunsky'".into())?;
+        let turbidity = obj.float("turbidity")?.unwrap_or(3.0);
+        if !(1.0..=10.0).contains(&turbidity) {
+            return Err(obj.err_param("turbidity", format!("= {turbidity} is outside [1, 10]")));
+        }
+        let albedo = obj.reflectance("albedo", 0.3)?;
+        let scale = |name: &str| -> Result<f32> {
+            let v = obj.float(name)?.unwrap_or(1.0);
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(obj.err_param(name, format!("= {v} must be a nonnegative number")));
+            }
+            Ok(v)
+        };
+        let (sun_scale, sky_scale) = (scale("sun_scale")?, scale("sky_scale")?);
+        // The disk's size changes neither its irradiance nor (here) its shadows: the sun
+        // is a directional light. `complex_sun` changes only the disk's look.
+        if let Some(a) = obj.float("sun_aperture")? {
+            if !(a > 0.0 && a < 180.0) {
+                return Err(obj.err_param("sun_aperture", format!("= {a} degrees is outside (0, 180)")));
+            }
+        }
+        obj.boolean("complex_sun", false)?;
+        let to_world = obj.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+        let rot = glam::Mat3::from_mat4(to_world);
+        if rot.determinant().abs() <= 1e-12 {
+            return Err(obj.err_param("to_world", "is singular"));
+        }
+        const PLACE: [&str; 9] = [
+            "latitude",
+            "longitude",
+            "timezone",
+            "year",
+            "month",
+            "day",
+            "hour",
+            "minute",
+            "second",
+        ];
+        let sun_local = match obj.vec3("sun_direction")? {
+            Some(d) => {
+                if let Some(p) = PLACE.iter().find(|p| obj.get(p).is_some()) {
+                    return Err(obj.err_param(
+                        p,
+                        "cannot be given with 'sun_direction' (the sun is placed by one or the other)",
+                    ));
+                }
+                let d = d
+                    .try_normalize()
+                    .ok_or_else(|| obj.err_param("sun_direction", "is the zero vector"))?;
+                (rot.inverse() * d).normalize().as_dvec3()
+            }
+            None => {
+                let mut place = SunPlace::default();
+                let float = |name: &str, v: &mut f64| -> Result<()> {
+                    if let Some(f) = obj.float(name)? {
+                        *v = f64::from(f);
+                    }
+                    Ok(())
+                };
+                float("latitude", &mut place.latitude)?;
+                float("longitude", &mut place.longitude)?;
+                float("timezone", &mut place.timezone)?;
+                float("hour", &mut place.hour)?;
+                float("minute", &mut place.minute)?;
+                float("second", &mut place.second)?;
+                for (name, v, range) in [
+                    ("year", &mut place.year, -4000..=10000),
+                    ("month", &mut place.month, 1..=12),
+                    ("day", &mut place.day, 1..=31),
+                ] {
+                    if let Some(i) = obj.int(name)? {
+                        if !range.contains(&i) {
+                            return Err(obj.err_param(name, format!("= {i} is outside {range:?}")));
+                        }
+                        *v = i;
+                    }
+                }
+                if !(-90.0..=90.0).contains(&place.latitude) {
+                    return Err(
+                        obj.err_param("latitude", format!("= {} is outside [-90, 90]", place.latitude))
+                    );
+                }
+                place.sun_direction()
+            }
+        };
+        if s.legacy {
+            self.warn(
+                s,
+                c,
+                "Mitsuba 0.6's 'sunsky' had +y up; it is read as Mitsuba 3 reads it, with +z up \
+                 (turn it with 'to_world')",
+            );
+        }
+        self.finish(&obj);
+        let model = SunSky::new(f64::from(turbidity), albedo.to_array().map(f64::from), sun_local);
+        if !model.sun_up() {
+            self.warn(
+                s,
+                c,
+                format!(
+                    "the sun is {:.1} degrees below the horizon: the sunsky emits nothing (as in Mitsuba)",
+                    -sun_local.z.asin().to_degrees()
+                ),
+            );
+            return Ok(());
+        }
+        let id = c.attribute("id").map(str::to_owned);
+        if sky_scale > 0.0 {
+            let sky = model
+                .bake(SKY_IMAGE_WIDTH, SKY_IMAGE_WIDTH / 2 + 1)
+                .map_err(|m| s.err(c, format!("emitter 'sunsky': {m}")))?;
+            self.scene.textures.push(sky);
+            self.scene.lights.push(Light::Environment {
+                radiance: Vec3::splat(sky_scale),
+                texture: Some(self.scene.textures.len() as u32 - 1),
+                to_local: sunsky::to_envmap_frame() * rot.inverse(),
+            });
+            self.scene.light_ids.resize(self.scene.lights.len() - 1, None);
+            self.scene.light_ids.push(id.clone());
+        }
+        // Mitsuba leaves the sun's RGB unclamped; a low sun can go slightly negative in
+        // blue, which no light here can carry.
+        let irradiance = sunsky::rgb(model.sun_irradiance()).max(Vec3::ZERO) * sun_scale;
+        if irradiance != Vec3::ZERO {
+            let towards = (rot * sun_local.as_vec3()).normalize();
+            self.scene.lights.push(Light::Directional {
+                direction: -towards,
+                irradiance,
+            });
+            self.scene.light_ids.resize(self.scene.lights.len() - 1, None);
+            self.scene.light_ids.push(id.map(|i| format!("{i} (sun)")));
+        }
+        Ok(())
+    }
 }
+
+/// The width of the image a `sunsky`'s sky is baked into (0.35 degrees a texel).
+const SKY_IMAGE_WIDTH: u32 = 1024;

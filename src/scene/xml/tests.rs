@@ -2,11 +2,12 @@ use std::f32::consts::PI;
 use std::fs;
 use std::path::PathBuf;
 
-use glam::{Mat4, Vec3, Vec4};
+use glam::{DVec3, Mat4, Vec3, Vec4};
 use tempfile::TempDir;
 
 use super::*;
 use crate::geometry::Patch;
+use crate::scene::sunsky::{self, SunSky};
 use crate::scene::{Bsdf, BsdfKind, FovAxis, Light};
 
 const SENSOR: &str = r#"<sensor type="perspective"><float name="fov" value="45"/></sensor>"#;
@@ -365,11 +366,11 @@ fn area_emitter_links_shape_and_light() {
 #[test]
 fn unsupported_emitters_warn() {
     let l = ok(&[
-        r#"<emitter type="sunsky"/>"#,
+        r#"<emitter type="projector"/>"#,
         r#"<emitter type="point"><rgb name="intensity" value="0"/></emitter>"#,
     ]);
     assert_eq!(l.scene.lights.len(), 1);
-    assert!(has_warning(&l, 3, "'sunsky'"));
+    assert!(has_warning(&l, 3, "'projector'"));
     assert!(has_warning(&l, 4, "zero intensity"));
 }
 
@@ -452,6 +453,92 @@ fn daylight_emitters_read_as_mitsuba_and_bad_ones_fail_with_their_line() {
         3,
     );
     assert!(e.contains("direction"), "{e}");
+}
+
+/// `sunsky`: a sky image and a sun, in the emitter's frame (+z up, here turned to +y
+/// by `to_world`), the sun placed by `sun_direction` (world space, as Mitsuba) or by
+/// date, time and place; bad values and a sun below the horizon are reported with
+/// their line.
+#[test]
+fn sunsky_reads_as_a_sky_image_and_a_sun() {
+    let l = ok(&[
+        r#"<emitter type="sunsky" id="day"><float name="turbidity" value="4"/><vector name="sun_direction" value="1, 1, 0"/>"#,
+        r#"<float name="sky_scale" value="2"/><transform name="to_world"><rotate x="1" angle="-90"/></transform></emitter>"#,
+    ]);
+    assert!(
+        !l.warnings.iter().any(|w| w.contains("sunsky")),
+        "{:?}",
+        l.warnings
+    );
+    let model = SunSky::new(4.0, [0.3; 3], DVec3::new(1.0, 0.0, 1.0));
+    match &l.scene.lights[..] {
+        [Light::Environment { radiance, .. }, Light::Directional {
+            direction,
+            irradiance,
+        }] => {
+            assert_eq!(*radiance, Vec3::splat(2.0));
+            assert!(
+                close(*direction, -Vec3::new(1.0, 1.0, 0.0).normalize()),
+                "{direction}"
+            );
+            assert!(close(*irradiance, sunsky::rgb(model.sun_irradiance())));
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(
+        l.scene.light_ids,
+        [Some("day".to_string()), Some("day (sun)".to_string())]
+    );
+    // World +y is the model's zenith; world -z its -y; below the floor, black.
+    let zenith = sunsky::rgb(model.sky_radiance(DVec3::Z)) * 2.0;
+    assert!((l.scene.sky(Vec3::Y) - zenith).abs().max_element() < 1e-4 * zenith.max_element());
+    let side = sunsky::rgb(model.sky_radiance(DVec3::new(0.0, -1.0, 0.3).normalize())) * 2.0;
+    let got = l.scene.sky(Vec3::new(0.0, 0.3, 1.0).normalize());
+    assert!(
+        (got - side).abs().max_element() < 0.01 * side.max_element(),
+        "{got} {side}"
+    );
+    assert_eq!(l.scene.sky(-Vec3::Y), Vec3::ZERO);
+
+    // By date and place (Paris, a winter morning): the sun as the model places it.
+    let l = ok(&[
+        r#"<emitter type="sunsky"><float name="latitude" value="48.85"/><float name="longitude" value="2.35"/>"#,
+        r#"<float name="timezone" value="1"/><integer name="year" value="2024"/><integer name="month" value="12"/>"#,
+        r#"<integer name="day" value="21"/><float name="hour" value="10.5"/><float name="sky_scale" value="0"/></emitter>"#,
+    ]);
+    match &l.scene.lights[..] {
+        [Light::Directional { direction, .. }] => {
+            let want = -Vec3::new(0.829_574_7, -0.522_584_9, 0.196_750_7);
+            assert!(direction.angle_between(want).to_degrees() < 0.05, "{direction}");
+        }
+        other => panic!("{other:?}"),
+    }
+
+    let e = err(
+        &[r#"<emitter type="sunsky"><float name="turbidity" value="12"/></emitter>"#],
+        3,
+    );
+    assert!(e.contains("turbidity") && e.contains("[1, 10]"), "{e}");
+    let e = err(
+        &[
+            r#"<emitter type="sunsky"><vector name="sun_direction" value="0,0,1"/><float name="hour" value="9"/></emitter>"#,
+        ],
+        3,
+    );
+    assert!(e.contains("'hour'") && e.contains("sun_direction"), "{e}");
+    let e = err(
+        &[r#"<emitter type="sunsky"><integer name="month" value="13"/></emitter>"#],
+        3,
+    );
+    assert!(e.contains("month"), "{e}");
+    let e = err(
+        &[r#"<emitter type="constant"/>"#, r#"<emitter type="sunsky"/>"#],
+        4,
+    );
+    assert!(e.contains("at most one"), "{e}");
+    let l = ok(&[r#"<emitter type="sunsky"><vector name="sun_direction" value="0.3, 0, -1"/></emitter>"#]);
+    assert!(l.scene.lights.is_empty());
+    assert!(has_warning(&l, 3, "below the horizon"));
 }
 
 // ------------------------------------------------------------- sensors
