@@ -73,15 +73,7 @@ impl SurfacePoint {
     /// The surface parameters (u, v) here: the mesh's, interpolated over the
     /// triangle; a mesh without them gives the barycentrics (b1, b2), as Mitsuba 3.
     pub fn uv(&self, scene: &Scene) -> Vec2 {
-        let mesh = &scene.shapes[self.shape as usize].mesh;
-        let (b1, b2) = (self.bary.x, self.bary.y);
-        match mesh.indices.get(self.tri as usize) {
-            Some(&[a, b, c]) if !mesh.uvs.is_empty() => {
-                let uv = |i: u32| mesh.uvs.get(i as usize).copied().unwrap_or_default();
-                uv(a) * (1.0 - b1 - b2) + uv(b) * b1 + uv(c) * b2
-            }
-            _ => self.bary,
-        }
+        scene.shapes[self.shape as usize].mesh.uv_at(self.tri, self.bary)
     }
 
     /// The material here: the shape's BSDF, and its reflection model with its

@@ -115,6 +115,19 @@ pub struct TriMesh {
 }
 
 impl TriMesh {
+    /// The surface parameters (u, v) at barycentrics `b` (the weights of the second and
+    /// third corners) of triangle `tri`: the mesh's, interpolated over the triangle; a
+    /// mesh without them gives `b` itself, as Mitsuba 3.
+    pub fn uv_at(&self, tri: u32, b: Vec2) -> Vec2 {
+        match self.indices.get(tri as usize) {
+            Some(&[i, j, k]) if !self.uvs.is_empty() => {
+                let uv = |i: u32| self.uvs.get(i as usize).copied().unwrap_or_default();
+                uv(i) * (1.0 - b.x - b.y) + uv(j) * b.x + uv(k) * b.y
+            }
+            _ => b,
+        }
+    }
+
     /// Number of triangles.
     pub fn triangle_count(&self) -> usize {
         self.indices.len()
