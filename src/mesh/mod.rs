@@ -18,11 +18,13 @@ use crate::accel::Hit;
 use crate::geometry::{ParamSurface, Patch};
 use crate::scene::{Light, Rgb, Scene};
 
+mod albedo;
 mod cells;
 mod cover;
 mod lattice;
 mod pieces;
 
+pub use albedo::{mean_albedo, textured_albedo};
 pub use cells::{point_in_polygon, quarter, ShootCell};
 pub use lattice::Lattice;
 pub use pieces::Piece;
@@ -522,6 +524,19 @@ impl RadiosityMesh {
             mesh.shape_first_patch.push(first_patch);
             let bsdf = &scene.bsdfs[shape.bsdf as usize];
             let reflectance = bsdf.kind.diffuse_albedo();
+            // A textured material's patches each take the texture's mean over their own
+            // triangles: the triangles of each of the shape's patches.
+            let tris_of: Vec<Vec<u32>> = if textured_albedo(bsdf) {
+                let mut v = vec![Vec::new(); shape.mesh.patches.len()];
+                for (t, &p) in shape.mesh.tri_patch.iter().enumerate() {
+                    if let Some(list) = v.get_mut(p as usize) {
+                        list.push(t as u32);
+                    }
+                }
+                v
+            } else {
+                Vec::new()
+            };
             // A surface without diffuse reflectance keeps no radiosity: one element per
             // patch. An emitting one (a lamp's black shade, a sky dome) keeps its
             // patches, which its light is shot from, but needs no finer elements.
@@ -577,6 +592,14 @@ impl RadiosityMesh {
                         covered: Vec::new(),
                     });
                 }
+                let reflectance = if tris_of.is_empty() {
+                    reflectance
+                } else {
+                    let tris = members
+                        .iter()
+                        .flat_map(|&m| tris_of.get(m as usize).into_iter().flatten().copied());
+                    mean_albedo(&shape.mesh, tris, bsdf, &scene.textures)
+                };
                 mesh.patches.push(MeshPatch {
                     shape: si as u32,
                     local: members[0],

@@ -752,3 +752,70 @@ fn slats_lying_on_one_another_along_the_lattice_axis_do_not_share_vertices_acros
     // about 27 elements of the mesh size (130 vertices, their corners).
     assert!(m.vertices.len() < 300, "{}", m.vertices.len());
 }
+
+/// A texture atlas: one shape of two separate quads (two patches), the first mapped on
+/// the texture's left half (dark), the second on its right (light). Each patch takes
+/// the texture's mean over its own (u, v), not the whole texture's mean, which the
+/// material's own albedo holds; an untextured shape keeps its albedo.
+#[test]
+fn a_textured_patch_takes_its_texture_mean_over_its_own_uv() {
+    use crate::scene::texture::TexFilter;
+    use crate::scene::{TexField, TexSlot, Texture};
+    let (dark, light) = (Vec3::new(0.1, 0.2, 0.3), Vec3::new(0.9, 0.7, 0.5));
+    let mut atlas = quad([v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.), v(0., 1., 0.)]);
+    let far = quad([v(3., 0., 2.), v(4., 0., 2.), v(4., 1., 2.), v(3., 1., 2.)]);
+    atlas.positions.extend(&far.positions);
+    atlas.indices.extend(far.indices.iter().map(|t| t.map(|i| i + 4)));
+    atlas.tri_patch = vec![0, 0, 1, 1];
+    atlas.patches.push(Patch::Polygon(vec![4, 5, 6, 7]));
+    // Left half (u in [0.05, 0.45]) for the first quad, right half for the second.
+    let (a, b) = (0.05f32, 0.45f32);
+    atlas.uvs = vec![
+        Vec2::new(a, 0.1),
+        Vec2::new(b, 0.1),
+        Vec2::new(b, 0.9),
+        Vec2::new(a, 0.9),
+        Vec2::new(1.0 - b, 0.1),
+        Vec2::new(1.0 - a, 0.1),
+        Vec2::new(1.0 - a, 0.9),
+        Vec2::new(1.0 - b, 0.9),
+    ];
+    let plain = quad([v(0., 3., 0.), v(1., 3., 0.), v(1., 4., 0.), v(0., 4., 0.)]);
+    let mut s = scene(
+        vec![(atlas, (dark + light) * 0.5), (plain, Vec3::splat(0.4))],
+        vec![],
+        &[],
+    );
+    let mut t = Texture::from_linear("atlas", 2, 1, vec![dark.to_array(), light.to_array()]).unwrap();
+    t.filter = TexFilter::Nearest;
+    s.textures.push(t);
+    s.bsdfs[s.shapes[0].bsdf as usize].textures.push(TexSlot {
+        path: Vec::new(),
+        field: TexField::Diffuse,
+        texture: 0,
+        factor: Vec3::ONE,
+    });
+    let m = RadiosityMesh::build(&s, 0.3);
+    let of = |shape: usize| -> Vec<Rgb> {
+        m.patches
+            .iter()
+            .filter(|p| p.shape as usize == shape)
+            .map(|p| p.reflectance)
+            .collect()
+    };
+    let atlas_patches = of(0);
+    assert_eq!(atlas_patches.len(), 2, "{atlas_patches:?}");
+    assert!(
+        atlas_patches
+            .iter()
+            .any(|r| (*r - dark).abs().max_element() < 1e-6),
+        "{atlas_patches:?}"
+    );
+    assert!(
+        atlas_patches
+            .iter()
+            .any(|r| (*r - light).abs().max_element() < 1e-6),
+        "{atlas_patches:?}"
+    );
+    assert_eq!(of(1), vec![Vec3::splat(0.4)]);
+}

@@ -265,7 +265,9 @@ impl<'a> Tracer<'a> {
                 normal = sp.ng;
                 continue;
             }
-            let rho = bsdf.kind.diffuse_albedo();
+            // The patch's albedo: its texture's mean over it, as the shots use.
+            let here = self.mesh.patch_at(self.scene, &hit, sp.front);
+            let rho = self.mesh.patches[here as usize].reflectance;
             let cos = (-dir).dot(sp.ns).max(0.0);
             let spec = bsdf.kind.mirror(cos);
             let glossy = bsdf.kind.glossy();
@@ -275,7 +277,7 @@ impl<'a> Tracer<'a> {
             let pg = glossy.map_or(0.0, |g| mean(g.scale * g.fresnel.f0()).clamp(0.0, 1.0));
             // Straight from a light or a shot, the deterministic shots hold the light
             // a diffuse surface takes: only the mirrors and glossy metals pass it on.
-            let q = (!first).then(|| self.mesh.patch_at(self.scene, &hit, sp.front));
+            let q = (!first).then_some(here);
             if let Some(q) = q.filter(|_| rho.max_element() > 0.0) {
                 let w = self.mesh.locate_on(self.scene, q, &hit, sp.p);
                 let slot = source

@@ -183,7 +183,6 @@ impl<'a> Tracer<'a> {
         }
         if kind.has_diffuse() {
             counters.diffuse_hits += 1;
-            let textured = texture_ratio(bsdf, &kind);
             let shade = Shade {
                 sp: &sp,
                 kind: &kind,
@@ -204,6 +203,7 @@ impl<'a> Tracer<'a> {
                     // vertices, plus the ray-traced sources of the patch.
                     let interp = mesh.locate(self.scene, &hit, sp.p, sp.front);
                     let patch = mesh.vertices[interp.vertices[0] as usize].patch;
+                    let textured = texture_ratio(bsdf, &kind, mesh.patches[patch as usize].reflectance);
                     let mut sum = match (&self.gather, depth) {
                         // The paper's last step: the gather replaces the general
                         // radiosity but its caustic part (see `gather` for the one
@@ -420,7 +420,9 @@ impl<'a> Tracer<'a> {
         let mut l = Vec3::ZERO;
         if kind.has_diffuse() {
             let interp = mesh.locate(self.scene, &hit, sp.p, sp.front);
-            l += interp.apply(total) * texture_ratio(bsdf, &kind) * std::f32::consts::FRAC_1_PI;
+            let patch = mesh.vertices[interp.vertices[0] as usize].patch;
+            let textured = texture_ratio(bsdf, &kind, mesh.patches[patch as usize].reflectance);
+            l += interp.apply(total) * textured * std::f32::consts::FRAC_1_PI;
         }
         if depth < self.max_depth {
             if let Some(lobe) = kind.glossy() {
@@ -558,14 +560,13 @@ pub const GLOSSY_DEPTH: u32 = 2;
 pub const GLOSSY_LIGHT_SAMPLES: u32 = 4;
 
 /// Per channel, the diffuse albedo of `kind` (`bsdf`'s model with its textures looked
-/// up at a point) over the albedo the solution was computed with, `bsdf`'s own (1 for
-/// an untextured material, and where that albedo is 0: nothing was stored there to
-/// scale).
-fn texture_ratio(bsdf: &Bsdf, kind: &BsdfKind) -> Rgb {
+/// up at a point) over `mean`, the albedo the solution was computed with there (the
+/// patch's: its texture's mean over the patch). 1 for an untextured material, and where
+/// that albedo is 0: nothing was stored there to scale.
+fn texture_ratio(bsdf: &Bsdf, kind: &BsdfKind, mean: Rgb) -> Rgb {
     if bsdf.textures.is_empty() {
         return Vec3::ONE;
     }
-    let mean = bsdf.kind.diffuse_albedo();
     Vec3::select(
         mean.cmpgt(Vec3::ZERO),
         kind.diffuse_albedo() / mean.max(Vec3::splat(f32::MIN_POSITIVE)),
