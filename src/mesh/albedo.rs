@@ -1,33 +1,40 @@
 //! The diffuse albedo pass 1 gives each patch: its material's, or, for a textured
 //! material, the texture's mean over the patch's own (u, v) (Sect. 6's radiosity
-//! stays per patch; the render puts the texture's detail back, texel over this mean).
+//! stays per patch; the render puts the texture's detail back, texel over this mean);
+//! and the share of the patch a `mask` leaves.
 
 use glam::{Vec2, Vec3};
 
 use crate::geometry::TriMesh;
 use crate::scene::{Bsdf, Rgb, TexField, Texture};
 
-/// Whether `bsdf`'s diffuse albedo varies over a surface (a texture on its diffuse
-/// reflectance or on a blend's weight).
+/// Whether `bsdf`'s diffuse albedo or opacity varies over a surface (a texture on its
+/// diffuse reflectance, on a blend's weight, or a `mask`).
 pub fn textured_albedo(bsdf: &Bsdf) -> bool {
     bsdf.textures
         .iter()
-        .any(|t| matches!(t.field, TexField::Diffuse | TexField::Weight))
+        .any(|t| matches!(t.field, TexField::Diffuse | TexField::Weight | TexField::Opacity))
 }
 
-/// The mean diffuse albedo of `bsdf` over triangles `tris` of `mesh`, weighted by
-/// their areas: each triangle's (u, v) sampled at the centroids of k x k sub-triangles,
-/// k from 2 to 8 as the texels it covers grow. `bsdf`'s own albedo when untextured or
-/// when the triangles have no area.
+/// The mean diffuse albedo of `bsdf` over the part of triangles `tris` of `mesh` that
+/// its `mask` leaves, and that part's share of their area (1 without a mask); areas
+/// weigh the triangles. Each triangle's (u, v) is sampled at the centroids of k x k
+/// sub-triangles, k from 2 to 8 as the texels it covers grow. `bsdf`'s own albedo when
+/// untextured or when nothing is left.
 pub fn mean_albedo(
     mesh: &TriMesh,
     tris: impl Iterator<Item = u32>,
     bsdf: &Bsdf,
     textures: &[Texture],
-) -> Rgb {
+) -> (Rgb, f32) {
     if !textured_albedo(bsdf) {
-        return bsdf.kind.diffuse_albedo();
+        return (bsdf.kind.diffuse_albedo(), 1.0);
     }
+    let mask = bsdf
+        .textures
+        .iter()
+        .find(|t| t.field == TexField::Opacity)
+        .and_then(|t| textures.get(t.texture as usize));
     // The largest texture sets the sampling density.
     let texels = bsdf
         .textures
@@ -39,7 +46,7 @@ pub fn mean_albedo(
         })
         .fold(1.0, f64::max);
     let mut sum = Vec3::ZERO.as_dvec3();
-    let mut total = 0.0f64;
+    let (mut present, mut total) = (0.0f64, 0.0f64);
     for tri in tris {
         let Some(&[a, b, c]) = mesh.indices.get(tri as usize) else {
             continue;
@@ -53,17 +60,24 @@ pub fn mean_albedo(
         let (u0, u1, u2) = (uv(Vec2::ZERO), uv(Vec2::X), uv(Vec2::Y));
         let uv_area = f64::from((u1 - u0).perp_dot(u2 - u0).abs() * 0.5);
         let k = ((uv_area * texels).sqrt() / 4.0).clamp(2.0, 8.0) as u32;
-        let mut tri_sum = Vec3::ZERO;
+        let (mut tri_sum, mut tri_present) = (Vec3::ZERO, 0.0f32);
         for_each_centroid(k, |bary| {
-            tri_sum += bsdf.kind_at(uv(bary), textures).diffuse_albedo()
+            let at = uv(bary);
+            let opacity = mask.map_or(1.0, |t| t.eval(at).x.clamp(0.0, 1.0));
+            tri_sum += bsdf.kind_at(at, textures).diffuse_albedo() * opacity;
+            tri_present += opacity;
         });
-        sum += tri_sum.as_dvec3() * (area / f64::from(k * k));
+        let per = area / f64::from(k * k);
+        sum += tri_sum.as_dvec3() * per;
+        present += f64::from(tri_present) * per;
         total += area;
     }
-    if total > 0.0 {
-        (sum / total).as_vec3()
+    if present > 0.0 {
+        ((sum / present).as_vec3(), (present / total) as f32)
+    } else if total > 0.0 {
+        (bsdf.kind.diffuse_albedo(), 0.0)
     } else {
-        bsdf.kind.diffuse_albedo()
+        (bsdf.kind.diffuse_albedo(), 1.0)
     }
 }
 

@@ -161,6 +161,12 @@ impl RadiosityMesh {
                 }
             }
         }
+        // A masked surface sends light from the part of it that is there.
+        if p.opacity < 1.0 {
+            for c in &mut out {
+                c.weight *= p.opacity;
+            }
+        }
         out
     }
 }

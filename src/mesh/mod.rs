@@ -90,8 +90,12 @@ pub struct MeshPatch {
     pub element_count: u32,
     /// Surface area.
     pub area: f32,
-    /// Diffuse reflectance used by the radiosity pass.
+    /// Diffuse reflectance used by the radiosity pass (for a textured material, its
+    /// mean over the patch's surface that a `mask` leaves).
     pub reflectance: Rgb,
+    /// The share of the patch's area that a `mask` leaves (1 without one): it scales
+    /// the light the patch sends (its cells) and its vertices' areas.
+    pub opacity: f32,
     /// For a patch with a two-sided material: its back twin (the same surface with
     /// the normal reversed and vertices of its own), which holds the light on the
     /// back side. Radiosity is one-sided: each side keeps its own values.
@@ -592,14 +596,19 @@ impl RadiosityMesh {
                         covered: Vec::new(),
                     });
                 }
-                let reflectance = if tris_of.is_empty() {
-                    reflectance
+                let (reflectance, opacity) = if tris_of.is_empty() {
+                    (reflectance, 1.0)
                 } else {
                     let tris = members
                         .iter()
                         .flat_map(|&m| tris_of.get(m as usize).into_iter().flatten().copied());
                     mean_albedo(&shape.mesh, tris, bsdf, &scene.textures)
                 };
+                if opacity < 1.0 {
+                    for v in &mut mesh.vertices[first_vertex as usize..] {
+                        v.area *= opacity;
+                    }
+                }
                 mesh.patches.push(MeshPatch {
                     shape: si as u32,
                     local: members[0],
@@ -609,6 +618,7 @@ impl RadiosityMesh {
                     element_count: elements,
                     area,
                     reflectance,
+                    opacity,
                     twin: None,
                 });
             }
@@ -646,7 +656,11 @@ impl RadiosityMesh {
                     mesh.vertices.extend(verts);
                 } else {
                     let (verts, _) = grid_vertices(g, twin_index);
-                    mesh.vertices.extend(verts);
+                    let opacity = twin.opacity;
+                    mesh.vertices.extend(verts.into_iter().map(|v| MeshVertex {
+                        area: v.area * opacity,
+                        ..v
+                    }));
                 }
             }
             mesh.patches[p].twin = Some(twin_index);

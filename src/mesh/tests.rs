@@ -819,3 +819,37 @@ fn a_textured_patch_takes_its_texture_mean_over_its_own_uv() {
     );
     assert_eq!(of(1), vec![Vec3::splat(0.4)]);
 }
+
+/// A `mask` leaving 3/4 of a quad (an untextured quad reads its barycentrics as
+/// (u, v): u < 0.5, the open texel, on 3/4 of each triangle): the patch keeps its
+/// albedo, and sends light from 3/4 of its area (its vertices' areas and its shooting
+/// cells' weights), so a masked leaf does not reflect as a whole one.
+#[test]
+fn a_masked_patch_sends_light_from_the_part_that_is_there() {
+    use crate::scene::texture::TexFilter;
+    use crate::scene::{TexField, TexSlot, Texture};
+    let leaf = quad([v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.), v(0., 1., 0.)]);
+    let rho = Vec3::new(0.2, 0.6, 0.3);
+    let mut s = scene(vec![(leaf, rho)], vec![], &[]);
+    let mut t = Texture::from_linear("mask", 2, 1, vec![[1.0; 3], [0.0; 3]]).unwrap();
+    t.filter = TexFilter::Nearest;
+    s.textures.push(t);
+    s.bsdfs[0].textures.push(TexSlot {
+        path: Vec::new(),
+        field: TexField::Opacity,
+        texture: 0,
+        factor: Vec3::ONE,
+    });
+    let m = RadiosityMesh::build(&s, 0.25);
+    let p = &m.patches[0];
+    assert!(
+        (p.reflectance - rho).abs().max_element() < 1e-6,
+        "{}",
+        p.reflectance
+    );
+    assert!((p.opacity - 0.75).abs() < 1e-6, "{}", p.opacity);
+    let areas: f32 = m.vertices.iter().filter(|x| x.patch == 0).map(|x| x.area).sum();
+    assert!((areas - 0.75 * p.area).abs() < 1e-4, "{areas} of {}", p.area);
+    let cells = m.shoot_cells(0, 16, |_| Vec2::splat(0.5), &[]);
+    assert!(!cells.is_empty() && cells.iter().all(|c| (c.weight - 0.75).abs() < 1e-6));
+}

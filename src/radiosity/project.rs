@@ -58,6 +58,7 @@ pub fn project(
 ) -> Option<(Vec<Rgb>, u64)> {
     let patch = &mesh.patches[p as usize];
     let rho = patch.reflectance;
+    let opacity = if patch.opacity > 0.0 { patch.opacity } else { 1.0 };
     let first = patch.first_vertex as usize;
     let count = patch.vertex_count as usize;
     if !point[first..first + count].iter().any(|c| c.max_element() > 0.0) {
@@ -161,7 +162,8 @@ pub fn project(
     // The part of a vertex's surface on no mixed piece keeps the vertex's value.
     let out = (0..count)
         .map(|v| {
-            let share = mesh.vertices[first + v].area;
+            // The vertex's geometric share (its area counts only what a mask leaves).
+            let share = mesh.vertices[first + v].area / opacity;
             let rest = (share - weight[v]).max(0.0);
             let total = share.max(weight[v]);
             if total > 0.0 {

@@ -504,6 +504,13 @@ impl Gather {
             let y = SurfacePoint::new(ctx.scene, &ray, &hit);
             let shape = &ctx.scene.shapes[hit.shape as usize];
             let bsdf = &ctx.scene.bsdfs[shape.bsdf as usize];
+            // This bounce's draws (masks and glass only: off the hot path otherwise).
+            // A ray through a mask's open part reads nothing there.
+            let s = || derive(derive(seed, Stream::Sample(k)), Stream::Sample(bounce));
+            if bsdf.masked() && y.passes(ctx.scene, bsdf, crate::sampling::uniform2(s()).x) {
+                ray = y.spawn(ray.dir, f32::INFINITY);
+                continue;
+            }
             if !y.front && !bsdf.twosided {
                 break;
             }
@@ -520,12 +527,6 @@ impl Gather {
                     };
                     e += through * radiosity;
                 }
-            }
-            // This bounce's draws (masks and glass only: off the hot path otherwise).
-            let s = || derive(derive(seed, Stream::Sample(k)), Stream::Sample(bounce));
-            if bsdf.masked() && y.passes(ctx.scene, bsdf, crate::sampling::uniform2(s()).x) {
-                ray = y.spawn(ray.dir, f32::INFINITY);
-                continue;
             }
             if bsdf.kind.is_glass() {
                 // Glass: on through one of its two rays, drawn by their weights.
