@@ -10,6 +10,7 @@ mod form_factor;
 pub mod obj;
 pub mod ply;
 pub mod quadric;
+pub mod serialized;
 pub mod shapes;
 mod solid_angle;
 mod text;

@@ -1,4 +1,4 @@
-//! Shape plugins: `obj`, `ply`, `bezier` (radtrace's `.bpt` files), `rectangle`,
+//! Shape plugins: `obj`, `ply`, `serialized`, `bezier` (radtrace's `.bpt` files), `rectangle`,
 //! `cube`, `disk` and `sphere`, with their bsdf and area emitter.
 
 use glam::{Mat3, Vec3};
@@ -8,6 +8,7 @@ use super::document::{tag, Loader, Src};
 use super::properties::{Child, Target};
 use crate::geometry::obj::read_obj;
 use crate::geometry::ply::read_ply;
+use crate::geometry::serialized::read_serialized;
 use crate::geometry::{bezier, shapes, TriMesh};
 use crate::scene::{Light, Rgb, Shape};
 use crate::Result;
@@ -38,6 +39,17 @@ impl Loader {
                     }
                 }
                 (mesh, format!("{ty}:{fname}"))
+            }
+            "serialized" => {
+                let (path, fname) = self.file_param(&obj, "filename")?;
+                let face_normals = obj.boolean("face_normals", false)?;
+                let index = obj.int("shape_index")?.unwrap_or(0);
+                let index = u32::try_from(index)
+                    .map_err(|_| obj.err_param("shape_index", format!("= {index} must be 0 or more")))?;
+                (
+                    read_serialized(&path, index, face_normals)?,
+                    format!("serialized:{fname}@{index}"),
+                )
             }
             "bezier" => {
                 let (path, fname) = self.file_param(&obj, "filename")?;
