@@ -103,6 +103,13 @@ const REFUSED: &[(&str, &str, &str, &str)] = &[
     ("ply-nan.xml", "nan.ply", ":11", "1 0 nan"),
     ("ply-huge-count.xml", "huge-count.ply", "", "file too short"),
     ("ply-truncated.xml", "truncated.ply", "", "ends early"),
+    (
+        "serialized-truncated.xml",
+        "truncated.serialized",
+        "",
+        "ends early",
+    ),
+    ("serialized-index.xml", "one-mesh.serialized", "", "holds 1 mesh"),
     ("bpt-truncated.xml", "truncated.bpt", ":8", "file ends early"),
     ("bpt-huge.xml", "huge.bpt", ":3:1", "absurdly large"),
     (
@@ -150,6 +157,8 @@ const REFERRED: &[&str] = &[
     "not-utf8.obj",
     "truncated.bpt",
     "truncated.ply",
+    "truncated.serialized",
+    "one-mesh.serialized",
     "good.xml",
     "other.xml",
     "damaged.sol",

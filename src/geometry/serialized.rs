@@ -123,7 +123,7 @@ pub fn parse_serialized(path: &Path, bytes: &[u8], shape_index: u32, face_normal
     if flags & HAS_COLORS != 0 {
         z.reals(3 * n, double)?;
     }
-    let mut faces = Vec::with_capacity(triangles.min(1 << 20) as usize);
+    let mut faces = Vec::with_capacity(triangles.min(1 << 16) as usize);
     for t in 0..triangles {
         let f = [z.u32()?, z.u32()?, z.u32()?];
         if let Some(&i) = f.iter().find(|&&i| i as usize >= n) {
@@ -171,7 +171,7 @@ impl<R: Read> Stream<'_, R> {
     /// `count` numbers, f32 or f64 in the file; growing as they are read, so a forged
     /// count ends at the data's end, not in an allocation.
     fn reals(&mut self, count: usize, double: bool) -> Result<Vec<f32>> {
-        let mut out = Vec::with_capacity(count.min(1 << 22));
+        let mut out = Vec::with_capacity(count.min(1 << 16));
         for _ in 0..count {
             out.push(if double {
                 f64::from_le_bytes(self.bytes()?) as f32
