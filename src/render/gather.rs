@@ -676,6 +676,78 @@ mod tests {
         assert!((relit.x - want).abs() < 1e-4 * want, "{relit} vs {want}");
     }
 
+    /// A gather ray through a mask's open part reads nothing of the mask: under a
+    /// screen at z = 1, open where its (u, v) (the barycentrics) have u < 0.5 and lit
+    /// from below by a light at z = 0.5 (so the mesh holds light on it), a ray up from
+    /// the floor through an open point brings back the ceiling's radiosity alone.
+    #[test]
+    fn a_gather_ray_through_an_open_mask_reads_what_is_behind_it() {
+        use crate::scene::{TexField, TexSlot, Texture};
+        let mut s = scene(
+            vec![
+                (square(0.0, 2.0, 0.0, 2.0, 0.0, false), Vec3::splat(0.5)),
+                (square(0.0, 2.0, 0.0, 2.0, 1.0, true), Vec3::splat(0.5)),
+                (square(0.0, 2.0, 0.0, 2.0, 2.0, true), Vec3::splat(0.5)),
+            ],
+            vec![Light::Point {
+                position: v(1.0, 1.0, 0.5),
+                intensity: Vec3::splat(10.0),
+            }],
+            &[],
+        );
+        let mut t = Texture::from_linear("half", 2, 1, vec![[0.0; 3], [1.0; 3]]).unwrap();
+        t.filter = crate::scene::texture::TexFilter::Nearest;
+        s.textures.push(t);
+        let screen = s.shapes[1].bsdf as usize;
+        s.bsdfs[screen].textures.push(TexSlot {
+            path: Vec::new(),
+            field: TexField::Opacity,
+            texture: 0,
+            factor: Vec3::ONE,
+        });
+        let bvh = Bvh::build(&s);
+        let sol = solve(&s, &bvh, &solve_settings(0.5, 4), &crate::progress::Silent).unwrap();
+        let lights: Vec<SampledLight> = s.lights.iter().map(|l| SampledLight::prepare(&s, l)).collect();
+        let ctx = Context {
+            scene: &s,
+            accel: &bvh,
+            solution: &sol,
+            lights: &lights,
+            area_samples: 16,
+        };
+        let g = gather_of(&s, &ctx, crate::selection::Method::Local);
+        // A point of the screen that is open.
+        let open = [(0.3, 0.6), (0.7, 1.3), (1.4, 0.5), (1.6, 1.2), (0.5, 1.7)]
+            .into_iter()
+            .find(|&(x, y)| {
+                let ray = Ray::new(v(x, y, 0.9), Vec3::Z);
+                let hit = bvh.intersect(&ray).expect("the screen");
+                let sp = SurfacePoint::new(&s, &ray, &hit);
+                hit.shape == 1 && sp.opacity(&s, &s.bsdfs[screen]) == 0.0
+            })
+            .expect("an open point");
+        let surface = |z: f32, dir: Vec3| {
+            let ray = Ray::new(v(open.0, open.1, z), dir);
+            let hit = bvh.intersect(&ray).expect("a surface");
+            let sp = SurfacePoint::new(&s, &ray, &hit);
+            (sp, hit)
+        };
+        let radiosity = |z: f32| {
+            let (sp, hit) = surface(z - 0.01, Vec3::Z);
+            let q = sol.mesh.patch_at(&s, &hit, sp.front);
+            sol.mesh.locate_on(&s, q, &hit, sp.p).apply(&g.total)
+        };
+        let (screen_b, ceiling_b) = (radiosity(1.0), radiosity(2.0));
+        assert!(screen_b.x > 0.01 && ceiling_b.x > 0.01, "{screen_b} {ceiling_b}");
+        let (floor, _) = surface(0.01, -Vec3::Z);
+        let (got, dist) = g.read(&ctx, &floor, Vec3::Z, &[], (3, 0), &mut Counters::default());
+        assert!(
+            (got - ceiling_b).abs().max_element() < 1e-5 * ceiling_b.x,
+            "{got} vs the ceiling's {ceiling_b}"
+        );
+        assert!(dist.is_finite());
+    }
+
     /// Ward and Heckbert's gradients of a stratified gather against closed forms: a
     /// point on a floor before a wall of radiosity c (1 m high, 100 m wide, nothing
     /// else bright) receives E = c F with F = (1 - d / sqrt(d^2 + 1)) / 2 at distance
