@@ -1,5 +1,5 @@
 //! Shape plugins: `obj`, `ply`, `serialized`, `bezier` (radtrace's `.bpt` files), `rectangle`,
-//! `cube`, `disk` and `sphere`, with their bsdf and area emitter.
+//! `cube`, `disk`, `sphere` and `cylinder`, with their bsdf and area emitter.
 
 use glam::{Mat3, Vec3};
 use roxmltree::Node;
@@ -83,6 +83,18 @@ impl Loader {
             "rectangle" => (shapes::rectangle(), format!("rectangle#{index}")),
             "cube" => (shapes::cube(), format!("cube#{index}")),
             "disk" => (shapes::disk(), format!("disk#{index}")),
+            "cylinder" => {
+                let p0 = obj.vec3("p0")?.unwrap_or(Vec3::ZERO);
+                let p1 = obj.vec3("p1")?.unwrap_or(Vec3::Z);
+                let radius = obj.float("radius")?.unwrap_or(1.0);
+                let mesh = shapes::cylinder(p0, p1, radius).ok_or_else(|| {
+                    obj.err_param(
+                        "radius",
+                        format!("= {radius} with p0 = {p0}, p1 = {p1}: no tube there"),
+                    )
+                })?;
+                (mesh, format!("cylinder#{index}"))
+            }
             "sphere" => {
                 let center = obj.vec3("center")?.unwrap_or(Vec3::ZERO);
                 let radius = obj.float("radius")?.unwrap_or(1.0);

@@ -809,6 +809,30 @@ fn glass_reads_named_indices_as_mitsuba_and_bad_ones_fail_with_their_line() {
 
 // ------------------------------------------------------------- shapes
 
+/// `cylinder`: Mitsuba's `p0`, `p1` (defaults 0 and +z) and `radius` (1), then
+/// `to_world`; a tube of no radius is an error naming its line.
+#[test]
+fn cylinders_read_their_axis_and_radius() {
+    let l = ok(&[
+        r#"<shape type="cylinder"><point name="p1" value="0, 0, 2"/><float name="radius" value="0.5"/><transform name="to_world"><translate x="3"/></transform></shape>"#,
+        r#"<shape type="cylinder"/>"#,
+    ]);
+    let (a, b) = (&l.scene.shapes[0].mesh, &l.scene.shapes[1].mesh);
+    let exact = 2.0 * PI * 0.5 * 2.0;
+    assert!((a.area() / exact - 1.0).abs() < 1e-3, "{}", a.area());
+    let (lo, hi) = a.bounds().unwrap();
+    assert!(
+        close(lo, Vec3::new(2.5, -0.5, 0.0)) && close(hi, Vec3::new(3.5, 0.5, 2.0)),
+        "{lo} {hi}"
+    );
+    assert!((b.area() / (2.0 * PI) - 1.0).abs() < 1e-3, "{}", b.area());
+    let e = err(
+        &[r#"<shape type="cylinder"><float name="radius" value="0"/></shape>"#],
+        3,
+    );
+    assert!(e.contains("radius"), "{e}");
+}
+
 #[test]
 fn spheres_and_disks_are_exact_and_a_stretched_sphere_stays_a_sphere_as_in_mitsuba() {
     let l = ok(&[
