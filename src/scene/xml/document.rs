@@ -80,6 +80,8 @@ pub(super) struct Loader {
     pub(super) scene: Scene,
     pub(super) ids: HashMap<String, (Target, String)>,
     pub(super) bsdf_index: HashMap<String, u32>,
+    /// The shapes of each `shapegroup`, by id, in the group's own space.
+    pub(super) groups: HashMap<String, Vec<crate::scene::Shape>>,
     pub(super) default_bsdf: [Option<u32>; 2],
     include_stack: Vec<PathBuf>,
     /// Whether the file being read is a Mitsuba 0.6 scene (an included file without
@@ -122,6 +124,7 @@ impl Loader {
             },
             ids: HashMap::new(),
             bsdf_index: HashMap::new(),
+            groups: HashMap::new(),
             default_bsdf: [None; 2],
             include_stack: vec![path.canonicalize().unwrap_or(path.to_path_buf())],
             legacy: false,

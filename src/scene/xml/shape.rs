@@ -1,7 +1,8 @@
 //! Shape plugins: `obj`, `ply`, `serialized`, `bezier` (radtrace's `.bpt` files), `rectangle`,
-//! `cube`, `disk`, `sphere` and `cylinder`, with their bsdf and area emitter.
+//! `cube`, `disk`, `sphere` and `cylinder`, with their bsdf and area emitter; `shapegroup`
+//! and `instance`.
 
-use glam::{Mat3, Vec3};
+use glam::{Mat3, Mat4, Vec3};
 use roxmltree::Node;
 
 use super::document::{tag, Loader, Src};
@@ -18,6 +19,11 @@ impl Loader {
         self.check_attrs(s, c, &["type", "id", "name"]);
         let ty = self.attr_req(s, c, "type")?;
         let id = self.attr(s, c, "id")?;
+        match ty.as_str() {
+            "shapegroup" => return self.shapegroup(s, c, id),
+            "instance" => return self.instance(s, c),
+            _ => {}
+        }
         self.register(s, c, Target::Other("shape"))?;
         let index = self.scene.shapes.len();
         let obj = self.collect(s, c, format!("shape '{ty}'"))?;
@@ -112,35 +118,10 @@ impl Loader {
         let name = id.clone().unwrap_or(auto_name);
 
         if let Some(m) = obj.transform("to_world")? {
-            let l = Mat3::from_mat4(m);
-            let det = l.determinant();
-            if det == 0.0 || !det.is_finite() {
+            if !invertible(&m) {
                 return Err(obj.err_param("to_world", "is singular (it flattens the shape)"));
             }
-            let ellipsoid = mesh.quadric.filter(|q| {
-                let mut q = *q;
-                q.transform(&m);
-                q.kind == crate::geometry::QuadricKind::Sphere && !q.is_similarity(1e-4)
-            });
-            if let Some(q) = ellipsoid {
-                // Mitsuba keeps a sphere a sphere: the centre moved, the radius scaled by
-                // the map's scale along x.
-                let centre = m.transform_point3(q.to_world().transform_point3(Vec3::ZERO));
-                let radius = m
-                    .transform_vector3(q.to_world().transform_vector3(Vec3::X))
-                    .length();
-                self.warn(
-                    s,
-                    c,
-                    format!(
-                        "sphere with a non-uniform to_world: rendered, as Mitsuba does, as the \
-                         sphere of radius {radius} (the scale along x) at {centre}"
-                    ),
-                );
-                mesh = shapes::sphere(centre, radius);
-            } else {
-                mesh.transform(&m);
-            }
+            mesh = self.place(s, c, mesh, &m);
         }
         if obj.boolean("flip_normals", false)? {
             mesh.flip_normals();
@@ -225,4 +206,112 @@ impl Loader {
         });
         Ok(())
     }
+
+    /// `mesh` moved by `m`; a sphere under a non-uniform map stays a sphere, as in
+    /// Mitsuba (with a warning).
+    fn place(&mut self, s: Src, c: Node, mut mesh: TriMesh, m: &Mat4) -> TriMesh {
+        let ellipsoid = mesh.quadric.filter(|q| {
+            let mut q = *q;
+            q.transform(m);
+            q.kind == crate::geometry::QuadricKind::Sphere && !q.is_similarity(1e-4)
+        });
+        if let Some(q) = ellipsoid {
+            // Mitsuba keeps a sphere a sphere: the centre moved, the radius scaled by
+            // the map's scale along x.
+            let centre = m.transform_point3(q.to_world().transform_point3(Vec3::ZERO));
+            let radius = m
+                .transform_vector3(q.to_world().transform_vector3(Vec3::X))
+                .length();
+            self.warn(
+                s,
+                c,
+                format!(
+                    "sphere with a non-uniform to_world: rendered, as Mitsuba does, as the \
+                     sphere of radius {radius} (the scale along x) at {centre}"
+                ),
+            );
+            shapes::sphere(centre, radius)
+        } else {
+            mesh.transform(m);
+            mesh
+        }
+    }
+
+    /// `shapegroup`: its shapes are read (each with its own `to_world`) and kept aside,
+    /// by the group's id, for the `instance`s that name it. As in Mitsuba, a group holds
+    /// no emitters.
+    fn shapegroup(&mut self, s: Src, c: Node, id: Option<String>) -> Result<()> {
+        let Some(id) = id else {
+            return Err(s.err(c, "a 'shapegroup' needs an id (its instances name it)"));
+        };
+        self.register(s, c, Target::Other("shapegroup"))?;
+        let (first_shape, first_light) = (self.scene.shapes.len(), self.scene.lights.len());
+        for ch in c.children().filter(Node::is_element) {
+            match tag(ch) {
+                "shape" => self.shape(s, ch)?,
+                t => self.warn(s, ch, format!("<{t}> inside shapegroup '{id}' ignored")),
+            }
+        }
+        if self.scene.lights.len() != first_light {
+            return Err(s.err(
+                c,
+                format!("shapegroup '{id}' holds an area emitter (Mitsuba allows none in a shapegroup)"),
+            ));
+        }
+        let group = self.scene.shapes.drain(first_shape..).collect();
+        self.groups.insert(id, group);
+        Ok(())
+    }
+
+    /// `instance`: a copy of a `shapegroup`'s shapes moved by the instance's `to_world`.
+    fn instance(&mut self, s: Src, c: Node) -> Result<()> {
+        self.register(s, c, Target::Other("shape"))?;
+        let obj = self.collect(s, c, "shape 'instance'".into())?;
+        let m = obj.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+        if !invertible(&m) {
+            return Err(obj.err_param("to_world", "is singular (it flattens the shape)"));
+        }
+        let mut group = None;
+        for ch in &obj.children {
+            match ch {
+                Child::Ref {
+                    id,
+                    target: Target::Other("shapegroup"),
+                    ..
+                } => group = Some(id.clone()),
+                Child::Ref { node, id, target } => {
+                    return Err(s.err_attr(
+                        *node,
+                        "id",
+                        format!("id '{id}' names a {}, not a shapegroup", target.kind()),
+                    ))
+                }
+                Child::Elem(n) => {
+                    let msg = format!("<{}> inside an instance ignored", tag(*n));
+                    self.warn(s, *n, msg);
+                }
+            }
+        }
+        self.finish(&obj);
+        let Some(group) = group else {
+            return Err(s.err(c, "an 'instance' needs a <ref> to a shapegroup"));
+        };
+        let copy = self.groups.get(&group).cloned().unwrap_or_default();
+        let n = self.scene.shapes.len();
+        for (k, shape) in copy.into_iter().enumerate() {
+            let mesh = self.place(s, c, shape.mesh, &m);
+            self.scene.shapes.push(Shape {
+                name: format!("{}@{group}#{}", shape.name, n + k),
+                mesh,
+                ..shape
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Whether `m`'s linear part can be undone (a shape keeps its area).
+fn invertible(m: &Mat4) -> bool {
+    let det = Mat3::from_mat4(*m).determinant();
+    det != 0.0 && det.is_finite()
 }

@@ -809,6 +809,50 @@ fn glass_reads_named_indices_as_mitsuba_and_bad_ones_fail_with_their_line() {
 
 // ------------------------------------------------------------- shapes
 
+/// `shapegroup` and `instance`: each instance adds the group's shapes moved by its own
+/// `to_world` (after each shape's own), with the group's materials; the group itself
+/// adds nothing. An emitter in a group, an instance without a group or naming a bsdf
+/// are errors naming their line.
+#[test]
+fn instances_copy_their_shapegroup_moved_by_their_to_world() {
+    let l = ok(&[
+        r#"<bsdf type="diffuse" id="red"><rgb name="reflectance" value="0.8, 0.1, 0.1"/></bsdf>"#,
+        r#"<shape type="shapegroup" id="g"><shape type="rectangle"><ref id="red"/><transform name="to_world"><translate z="1"/></transform></shape><shape type="cube"/></shape>"#,
+        r#"<shape type="instance"><ref id="g"/><transform name="to_world"><translate x="5"/></transform></shape>"#,
+        r#"<shape type="instance"><ref id="g"/><transform name="to_world"><scale value="2"/></transform></shape>"#,
+    ]);
+    let shapes = &l.scene.shapes;
+    assert_eq!(shapes.len(), 4);
+    let red = l.scene.bsdfs[shapes[0].bsdf as usize].kind.diffuse_albedo();
+    assert!(close(red, Vec3::new(0.8, 0.1, 0.1)));
+    assert_eq!(shapes[0].bsdf, shapes[2].bsdf);
+    assert_eq!(
+        shapes[0].mesh.bounds(),
+        Some((Vec3::new(4.0, -1.0, 1.0), Vec3::new(6.0, 1.0, 1.0)))
+    );
+    assert_eq!(
+        shapes[3].mesh.bounds(),
+        Some((Vec3::splat(-2.0), Vec3::splat(2.0)))
+    );
+    assert!((shapes[1].mesh.area() - 24.0).abs() < 1e-4 && (shapes[3].mesh.area() - 96.0).abs() < 1e-3);
+
+    let e = err(
+        &[r#"<shape type="shapegroup" id="g"><shape type="cube"><emitter type="area"/></shape></shape>"#],
+        3,
+    );
+    assert!(e.contains("emitter"), "{e}");
+    let e = err(&[r#"<shape type="instance"/>"#], 3);
+    assert!(e.contains("shapegroup"), "{e}");
+    let e = err(
+        &[
+            r#"<bsdf type="diffuse" id="b"/>"#,
+            r#"<shape type="instance"><ref id="b"/></shape>"#,
+        ],
+        4,
+    );
+    assert!(e.contains("not a shapegroup"), "{e}");
+}
+
 /// `cylinder`: Mitsuba's `p0`, `p1` (defaults 0 and +z) and `radius` (1), then
 /// `to_world`; a tube of no radius is an error naming its line.
 #[test]
