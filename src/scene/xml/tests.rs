@@ -2,7 +2,7 @@ use std::f32::consts::PI;
 use std::fs;
 use std::path::PathBuf;
 
-use glam::{DVec3, Mat4, Vec3, Vec4};
+use glam::{DVec3, Mat4, Vec2, Vec3, Vec4};
 use tempfile::TempDir;
 
 use super::*;
@@ -851,6 +851,29 @@ fn instances_copy_their_shapegroup_moved_by_their_to_world() {
         4,
     );
     assert!(e.contains("not a shapegroup"), "{e}");
+}
+
+/// `checkerboard`: `color0` where u and v fall in the same half of their unit square,
+/// `color1` elsewhere, after `to_uv`; its mean is pass 1's value.
+#[test]
+fn a_checkerboard_is_mitsubas_pattern() {
+    let l = ok(&[
+        r#"<bsdf type="diffuse" id="c"><texture type="checkerboard" name="reflectance"><rgb name="color0" value="0.8, 0.6, 0.4"/>"#,
+        r#"<float name="color1" value="0.1"/><transform name="to_uv"><scale x="2" y="2"/></transform></texture></bsdf>"#,
+        r#"<shape type="cube"><ref id="c"/></shape>"#,
+    ]);
+    assert!(
+        !l.warnings.iter().any(|w| w.contains("checkerboard")),
+        "{:?}",
+        l.warnings
+    );
+    let b = &l.scene.bsdfs[l.scene.shapes[0].bsdf as usize];
+    let (c0, c1) = (Vec3::new(0.8, 0.6, 0.4), Vec3::splat(0.1));
+    assert!(close(b.kind.diffuse_albedo(), (c0 + c1) * 0.5));
+    let at = |u: f32, v: f32| b.kind_at(Vec2::new(u, v), &l.scene.textures).diffuse_albedo();
+    // Scaled by 2: cells of a quarter.
+    assert!(close(at(0.1, 0.1), c0) && close(at(0.3, 0.1), c1) && close(at(0.1, 0.3), c1));
+    assert!(close(at(0.3, 0.3), c0) && close(at(0.6, 0.1), c0) && close(at(-0.1, 0.1), c1));
 }
 
 /// `cylinder`: Mitsuba's `p0`, `p1` (defaults 0 and +z) and `radius` (1), then

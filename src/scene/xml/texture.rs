@@ -168,17 +168,9 @@ impl Loader {
                 t
             }
             "checkerboard" => {
-                obj.mark_all();
-                let mean = 0.5 * (obj.color("color0", 0.4)? + obj.color("color1", 0.2)?);
-                self.warn(
-                    s,
-                    c,
-                    format!("checkerboard texture replaced by its mean colour {mean}"),
-                );
-                TexVal {
-                    mean: Some(mean),
-                    image: None,
-                }
+                let t = self.checkerboard(&obj)?;
+                self.finish(&obj);
+                t
             }
             t => {
                 obj.mark_all();
@@ -227,15 +219,7 @@ impl Loader {
                 ))
             }
         };
-        let to_uv = match obj.transform("to_uv")? {
-            // The 2D part of the 4x4 transform: x and y, translation in the last column.
-            Some(m) => Affine2::from_cols(
-                m.x_axis.truncate().truncate(),
-                m.y_axis.truncate().truncate(),
-                m.w_axis.truncate().truncate(),
-            ),
-            None => Affine2::IDENTITY,
-        };
+        let to_uv = to_uv(obj)?;
         // Mitsuba 0.6 files may still say `gamma` (their bump maps' 1.0): -1 or 2.2
         // is sRGB, 1 is linear, as there.
         let raw = match obj.float("gamma")? {
@@ -272,4 +256,35 @@ impl Loader {
             image: Some(i),
         })
     }
+
+    /// Mitsuba's `checkerboard` (`color0`, 0.4, and `color1`, 0.2, `to_uv`): in each unit
+    /// square of (u, v), `color0` where u and v are both below or both above one half,
+    /// `color1` elsewhere. That is exactly a 2 x 2 image looked up by nearest texel and
+    /// repeated, which is what it becomes (a colour given as a texture takes its mean).
+    fn checkerboard(&mut self, obj: &Obj) -> Result<TexVal> {
+        let (c0, c1) = (obj.color("color0", 0.4)?, obj.color("color1", 0.2)?);
+        let (a, b) = (c0.to_array(), c1.to_array());
+        let mut t = Texture::from_linear("checkerboard", 2, 2, vec![a, b, b, a])
+            .map_err(|m| obj.err_param("color0", m))?;
+        (t.filter, t.wrap, t.to_uv) = (TexFilter::Nearest, TexWrap::Repeat, to_uv(obj)?);
+        let mean = t.mean;
+        self.scene.textures.push(t);
+        Ok(TexVal {
+            mean: Some(mean),
+            image: Some(self.scene.textures.len() as u32 - 1),
+        })
+    }
+}
+
+/// A texture's `to_uv`: the 2D part of the 4x4 transform (x and y, the translation in
+/// the last column); the identity without one.
+fn to_uv(obj: &Obj) -> Result<Affine2> {
+    Ok(match obj.transform("to_uv")? {
+        Some(m) => Affine2::from_cols(
+            m.x_axis.truncate().truncate(),
+            m.y_axis.truncate().truncate(),
+            m.w_axis.truncate().truncate(),
+        ),
+        None => Affine2::IDENTITY,
+    })
 }
