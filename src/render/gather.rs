@@ -625,6 +625,32 @@ mod tests {
         Gather::new(ctx, 16, &sel)
     }
 
+    /// A scene solved at `mesh_size`, with its BVH and prepared lights.
+    struct Solved {
+        bvh: Bvh,
+        sol: crate::radiosity::Solution,
+        lights: Vec<SampledLight>,
+    }
+
+    impl Solved {
+        fn new(s: &Scene, mesh_size: f32) -> Self {
+            let bvh = Bvh::build(s);
+            let sol = solve(s, &bvh, &solve_settings(mesh_size, 4), &crate::progress::Silent).unwrap();
+            let lights = s.lights.iter().map(|l| SampledLight::prepare(s, l)).collect();
+            Solved { bvh, sol, lights }
+        }
+
+        fn ctx<'a>(&'a self, s: &'a Scene) -> Context<'a> {
+            Context {
+                scene: s,
+                accel: &self.bvh,
+                solution: &self.sol,
+                lights: &self.lights,
+                area_samples: 16,
+            }
+        }
+    }
+
     /// A gather ray that lands near relights its hit by shadow rays: under a small
     /// slab that the 1 m mesh cannot follow, the floor's interpolated light from the
     /// point light is far from zero, but the relit one is zero; in the open it is the
@@ -642,16 +668,8 @@ mod tests {
             }],
             &[],
         );
-        let bvh = Bvh::build(&s);
-        let sol = solve(&s, &bvh, &solve_settings(1.0, 4), &crate::progress::Silent).unwrap();
-        let lights: Vec<SampledLight> = s.lights.iter().map(|l| SampledLight::prepare(&s, l)).collect();
-        let ctx = Context {
-            scene: &s,
-            accel: &bvh,
-            solution: &sol,
-            lights: &lights,
-            area_samples: 16,
-        };
+        let solved = Solved::new(&s, 1.0);
+        let (bvh, sol, ctx) = (&solved.bvh, &solved.sol, solved.ctx(&s));
         let g = gather_of(&s, &ctx, crate::selection::Method::Local);
         // The floor point (x, y) as a gather ray from just above it meets it.
         let at = |x: f32, y: f32| {
@@ -705,16 +723,8 @@ mod tests {
             texture: 0,
             factor: Vec3::ONE,
         });
-        let bvh = Bvh::build(&s);
-        let sol = solve(&s, &bvh, &solve_settings(0.5, 4), &crate::progress::Silent).unwrap();
-        let lights: Vec<SampledLight> = s.lights.iter().map(|l| SampledLight::prepare(&s, l)).collect();
-        let ctx = Context {
-            scene: &s,
-            accel: &bvh,
-            solution: &sol,
-            lights: &lights,
-            area_samples: 16,
-        };
+        let solved = Solved::new(&s, 0.5);
+        let (bvh, sol, ctx) = (&solved.bvh, &solved.sol, solved.ctx(&s));
         let g = gather_of(&s, &ctx, crate::selection::Method::Local);
         // A point of the screen that is open.
         let open = [(0.3, 0.6), (0.7, 1.3), (1.4, 0.5), (1.6, 1.2), (0.5, 1.7)]
