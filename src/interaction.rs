@@ -153,11 +153,10 @@ impl SurfacePoint {
 
     /// How opaque the material is here (`mask`'s opacity; 1 without a mask).
     pub fn opacity(&self, scene: &Scene, bsdf: &Bsdf) -> f32 {
-        bsdf.textures
-            .iter()
-            .find(|t| t.field == crate::scene::TexField::Opacity)
-            .and_then(|t| scene.textures.get(t.texture as usize))
-            .map_or(1.0, |t| t.eval(self.uv(scene)).x.clamp(0.0, 1.0))
+        if !bsdf.masked() {
+            return 1.0;
+        }
+        bsdf.opacity_at(self.uv(scene), &scene.textures)
     }
 
     /// Whether a ray that meets this point goes on through it (a `mask`ed surface,

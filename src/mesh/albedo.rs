@@ -30,11 +30,7 @@ pub fn mean_albedo(
     if !textured_albedo(bsdf) {
         return (bsdf.kind.diffuse_albedo(), 1.0);
     }
-    let mask = bsdf
-        .textures
-        .iter()
-        .find(|t| t.field == TexField::Opacity)
-        .and_then(|t| textures.get(t.texture as usize));
+    let masked = bsdf.masked();
     // The largest texture sets the sampling density.
     let texels = bsdf
         .textures
@@ -63,7 +59,11 @@ pub fn mean_albedo(
         let (mut tri_sum, mut tri_present) = (Vec3::ZERO, 0.0f32);
         for_each_centroid(k, |bary| {
             let at = uv(bary);
-            let opacity = mask.map_or(1.0, |t| t.eval(at).x.clamp(0.0, 1.0));
+            let opacity = if masked {
+                bsdf.opacity_at(at, textures)
+            } else {
+                1.0
+            };
             tri_sum += bsdf.kind_at(at, textures).diffuse_albedo() * opacity;
             tri_present += opacity;
         });

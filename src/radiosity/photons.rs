@@ -265,9 +265,11 @@ impl<'a> Tracer<'a> {
                 normal = sp.ng;
                 continue;
             }
-            // The patch's albedo: its texture's mean over it, as the shots use.
-            let here = self.mesh.patch_at(self.scene, &hit, sp.front);
-            let rho = self.mesh.patches[here as usize].reflectance;
+            // Straight from a light or a shot, the deterministic shots hold the light
+            // a diffuse surface takes: only the mirrors and glossy metals pass it on.
+            // Later, the patch's albedo (its texture's mean over it, as the shots use).
+            let q = (!first).then(|| self.mesh.patch_at(self.scene, &hit, sp.front));
+            let rho = q.map_or(Vec3::ZERO, |q| self.mesh.patches[q as usize].reflectance);
             let cos = (-dir).dot(sp.ns).max(0.0);
             let spec = bsdf.kind.mirror(cos);
             let glossy = bsdf.kind.glossy();
@@ -275,9 +277,6 @@ impl<'a> Tracer<'a> {
             // at normal incidence, then weighs it by the lobe's sampling weight over
             // that (the lobe reflects at most that fraction, nearly, at any angle).
             let pg = glossy.map_or(0.0, |g| mean(g.scale * g.fresnel.f0()).clamp(0.0, 1.0));
-            // Straight from a light or a shot, the deterministic shots hold the light
-            // a diffuse surface takes: only the mirrors and glossy metals pass it on.
-            let q = (!first).then_some(here);
             if let Some(q) = q.filter(|_| rho.max_element() > 0.0) {
                 let w = self.mesh.locate_on(self.scene, q, &hit, sp.p);
                 let slot = source

@@ -242,6 +242,16 @@ impl Bsdf {
         self.textures.iter().any(|t| t.field == TexField::Opacity)
     }
 
+    /// How opaque the surface is at surface parameters `uv` (its `mask`'s opacity, the
+    /// texture's first channel in [0, 1]; 1 without a mask).
+    pub fn opacity_at(&self, uv: Vec2, textures: &[Texture]) -> f32 {
+        self.textures
+            .iter()
+            .find(|t| t.field == TexField::Opacity)
+            .and_then(|t| textures.get(t.texture as usize))
+            .map_or(1.0, |t| t.eval(uv).x.clamp(0.0, 1.0))
+    }
+
     /// The reflection model at surface parameters `uv`: `kind` with its textured
     /// parameters looked up there (`kind` itself when none is).
     pub fn kind_at(&self, uv: Vec2, textures: &[Texture]) -> Cow<'_, BsdfKind> {

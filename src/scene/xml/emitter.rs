@@ -31,11 +31,12 @@ impl Loader {
         Ok(Some(radiance))
     }
 
-    /// Records the `id` of the light just pushed (for tables and messages).
-    fn name_light(&mut self, c: Node) {
+    /// Adds `light` with its `id` (for tables and messages).
+    fn add_light(&mut self, light: Light, id: Option<String>) {
+        self.scene.lights.push(light);
         let i = self.scene.lights.len() - 1;
         self.scene.light_ids.resize(i, None);
-        self.scene.light_ids.push(c.attribute("id").map(str::to_owned));
+        self.scene.light_ids.push(id);
     }
 
     pub(super) fn emitter(&mut self, s: Src, c: Node) -> Result<()> {
@@ -63,8 +64,10 @@ impl Loader {
                 if intensity == Vec3::ZERO {
                     self.warn(s, c, "point light with zero intensity");
                 }
-                self.scene.lights.push(Light::Point { position, intensity });
-                self.name_light(c);
+                self.add_light(
+                    Light::Point { position, intensity },
+                    c.attribute("id").map(str::to_owned),
+                );
             }
             "spot" => {
                 let obj = self.collect(s, c, "emitter 'spot'".into())?;
@@ -95,14 +98,16 @@ impl Loader {
                 if intensity == Vec3::ZERO {
                     self.warn(s, c, "spot light with zero intensity");
                 }
-                self.scene.lights.push(Light::Spot {
-                    position,
-                    direction,
-                    intensity,
-                    cutoff_angle: cutoff.to_radians(),
-                    beam_width: beam.to_radians(),
-                });
-                self.name_light(c);
+                self.add_light(
+                    Light::Spot {
+                        position,
+                        direction,
+                        intensity,
+                        cutoff_angle: cutoff.to_radians(),
+                        beam_width: beam.to_radians(),
+                    },
+                    c.attribute("id").map(str::to_owned),
+                );
             }
             "area" => {
                 return Err(s.err(c, "an 'area' emitter must be nested inside a <shape>"));
@@ -128,11 +133,13 @@ impl Loader {
                 if irradiance == Vec3::ZERO {
                     self.warn(s, c, "directional light with zero irradiance");
                 }
-                self.scene.lights.push(Light::Directional {
-                    direction,
-                    irradiance,
-                });
-                self.name_light(c);
+                self.add_light(
+                    Light::Directional {
+                        direction,
+                        irradiance,
+                    },
+                    c.attribute("id").map(str::to_owned),
+                );
             }
             "constant" | "envmap" => {
                 if self.scene.environment().is_some() {
@@ -168,20 +175,16 @@ impl Loader {
                     self.scene.textures.push(t);
                     (Vec3::splat(scale), Some(self.scene.textures.len() as u32 - 1))
                 };
-                let to_world = obj.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
-                let rot = glam::Mat3::from_mat4(to_world);
-                let to_local = if rot.determinant().abs() > 1e-12 {
-                    rot.inverse()
-                } else {
-                    return Err(obj.err_param("to_world", "is singular"));
-                };
+                let to_local = rotation(&obj)?.inverse();
                 self.finish(&obj);
-                self.scene.lights.push(Light::Environment {
-                    radiance,
-                    texture,
-                    to_local,
-                });
-                self.name_light(c);
+                self.add_light(
+                    Light::Environment {
+                        radiance,
+                        texture,
+                        to_local,
+                    },
+                    c.attribute("id").map(str::to_owned),
+                );
             }
             "sunsky" => self.sunsky(s, c)?,
             t => self.warn(s, c, format!("emitter '{t}' is not supported; ignored")),
@@ -221,11 +224,7 @@ impl Loader {
             }
         }
         obj.boolean("complex_sun", false)?;
-        let to_world = obj.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
-        let rot = glam::Mat3::from_mat4(to_world);
-        if rot.determinant().abs() <= 1e-12 {
-            return Err(obj.err_param("to_world", "is singular"));
-        }
+        let rot = rotation(&obj)?;
         const PLACE: [&str; 9] = [
             "latitude",
             "longitude",
@@ -311,25 +310,23 @@ impl Loader {
                 .bake(SKY_IMAGE_WIDTH, SKY_IMAGE_WIDTH / 2 + 1)
                 .map_err(|m| s.err(c, format!("emitter 'sunsky': {m}")))?;
             self.scene.textures.push(sky);
-            self.scene.lights.push(Light::Environment {
+            let sky = Light::Environment {
                 radiance: Vec3::splat(sky_scale),
                 texture: Some(self.scene.textures.len() as u32 - 1),
                 to_local: sunsky::to_envmap_frame() * rot.inverse(),
-            });
-            self.scene.light_ids.resize(self.scene.lights.len() - 1, None);
-            self.scene.light_ids.push(id.clone());
+            };
+            self.add_light(sky, id.clone());
         }
         // Mitsuba leaves the sun's RGB unclamped; a low sun can go slightly negative in
         // blue, which no light here can carry.
         let irradiance = sunsky::rgb(model.sun_irradiance()).max(Vec3::ZERO) * sun_scale;
         if irradiance != Vec3::ZERO {
             let towards = (rot * sun_local.as_vec3()).normalize();
-            self.scene.lights.push(Light::Directional {
+            let sun = Light::Directional {
                 direction: -towards,
                 irradiance,
-            });
-            self.scene.light_ids.resize(self.scene.lights.len() - 1, None);
-            self.scene.light_ids.push(id.map(|i| format!("{i} (sun)")));
+            };
+            self.add_light(sun, id.map(|i| format!("{i} (sun)")));
         }
         Ok(())
     }
@@ -337,3 +334,13 @@ impl Loader {
 
 /// The width of the image a `sunsky`'s sky is baked into (0.35 degrees a texel).
 const SKY_IMAGE_WIDTH: u32 = 1024;
+
+/// The rotation part of an infinite emitter's `to_world` (the identity without one); an
+/// error when it is singular.
+fn rotation(obj: &super::properties::Obj) -> Result<glam::Mat3> {
+    let rot = glam::Mat3::from_mat4(obj.transform("to_world")?.unwrap_or(Mat4::IDENTITY));
+    if rot.determinant().abs() <= 1e-12 {
+        return Err(obj.err_param("to_world", "is singular"));
+    }
+    Ok(rot)
+}
