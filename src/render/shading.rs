@@ -156,22 +156,15 @@ impl<'a> Tracer<'a> {
             }
         }
         let (bsdf, kind) = sp.material(self.scene);
-        if bsdf.masked() {
-            let on = derive(seed, Stream::Transmission);
-            if sp.passes(self.scene, bsdf, uniform2(on).x) {
-                // Through a mask's open part, as if the surface were not there.
-                return self.trace(&sp.spawn(ray.dir, f32::INFINITY), depth, on, counters, sib, emit);
-            }
+        if let Some((on, through)) = self.through_mask(&sp, bsdf, ray, seed) {
+            // Through a mask's open part, as if the surface were not there.
+            return self.trace(&through, depth, on, counters, sib, emit);
         }
         let sp = sp.bumped(self.scene, bsdf);
         if kind.is_glass() {
-            if depth < self.max_depth {
-                for (ray, w, s) in glass::rays(&kind, &sp, ray.dir, depth, seed) {
-                    counters.reflection_rays += 1;
-                    l += w * self.trace(&ray, depth + 1, s, counters, None, true);
-                }
-            }
-            return l;
+            return l + self.through_glass(&kind, &sp, ray, depth, seed, counters, |t, r, s, c| {
+                t.trace(r, depth + 1, s, c, None, true)
+            });
         }
         if !sp.front && !bsdf.twosided {
             return l; // the back of a one-sided material is black, as in Mitsuba
@@ -364,6 +357,40 @@ impl<'a> Tracer<'a> {
         l
     }
 
+    /// Where a ray meeting a `mask`ed surface at `sp` goes on through its open part
+    /// (drawn by its opacity): the ray on, and its seed.
+    fn through_mask(&self, sp: &SurfacePoint, bsdf: &Bsdf, ray: &Ray, seed: u32) -> Option<(u32, Ray)> {
+        if !bsdf.masked() {
+            return None;
+        }
+        let on = derive(seed, Stream::Transmission);
+        sp.passes(self.scene, bsdf, uniform2(on).x)
+            .then(|| (on, sp.spawn(ray.dir, f32::INFINITY)))
+    }
+
+    /// What glass at `sp` passes back along `ray`: its reflected and transmitted rays
+    /// ([`glass::rays`]), each followed by `follow` and weighted, within the depth limit.
+    #[allow(clippy::too_many_arguments)]
+    fn through_glass(
+        &self,
+        kind: &BsdfKind,
+        sp: &SurfacePoint,
+        ray: &Ray,
+        depth: u32,
+        seed: u32,
+        counters: &mut Counters,
+        mut follow: impl FnMut(&Self, &Ray, u32, &mut Counters) -> Rgb,
+    ) -> Rgb {
+        let mut l = Vec3::ZERO;
+        if depth < self.max_depth {
+            for (r, w, s) in glass::rays(kind, sp, ray.dir, depth, seed) {
+                counters.reflection_rays += 1;
+                l += w * follow(self, &r, s, counters);
+            }
+        }
+        l
+    }
+
     /// Radiance along a ray drawn from a glossy lobe, without emitters' radiance:
     /// with a solution, the total radiosity where it lands (scaled by a texture
     /// there), and mirrors and lobes followed; without one, the full shading. With
@@ -395,21 +422,14 @@ impl<'a> Tracer<'a> {
             _ => None,
         };
         let (bsdf, kind) = sp.material(self.scene);
-        if bsdf.masked() {
-            let on = derive(seed, Stream::Transmission);
-            if sp.passes(self.scene, bsdf, uniform2(on).x) {
-                return self.reflected(&sp.spawn(ray.dir, f32::INFINITY), depth, on, counters);
-            }
+        if let Some((on, through)) = self.through_mask(&sp, bsdf, ray, seed) {
+            return self.reflected(&through, depth, on, counters);
         }
         let sp = sp.bumped(self.scene, bsdf);
         if kind.is_glass() {
-            let mut l = Vec3::ZERO;
-            if depth < self.max_depth {
-                for (ray, w, s) in glass::rays(&kind, &sp, ray.dir, depth, seed) {
-                    counters.reflection_rays += 1;
-                    l += w * self.reflected(&ray, depth + 1, s, counters).0;
-                }
-            }
+            let l = self.through_glass(&kind, &sp, ray, depth, seed, counters, |t, r, s, c| {
+                t.reflected(r, depth + 1, s, c).0
+            });
             return (l, emitter);
         }
         let wo = -ray.dir;
