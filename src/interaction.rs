@@ -115,12 +115,12 @@ impl SurfacePoint {
         };
         let p = |i: u32| mesh.positions[i as usize];
         let (dp1, dp2) = (p(b) - p(a), p(c) - p(a));
-        let (du1, du2) = if mesh.uvs.is_empty() {
-            (Vec2::X, Vec2::Y)
-        } else {
-            let uv = |i: u32| mesh.uvs.get(i as usize).copied().unwrap_or_default();
-            (uv(b) - uv(a), uv(c) - uv(a))
-        };
+        // The (u, v) of the corners by the one rule (the barycentrics without any).
+        let uv0 = mesh.uv_at(self.tri, Vec2::ZERO);
+        let (du1, du2) = (
+            mesh.uv_at(self.tri, Vec2::X) - uv0,
+            mesh.uv_at(self.tri, Vec2::Y) - uv0,
+        );
         let det = du1.x * du2.y - du1.y * du2.x;
         if !(det.abs() > 1e-20) {
             return self;
@@ -162,7 +162,7 @@ impl SurfacePoint {
     /// Whether a ray that meets this point goes on through it (a `mask`ed surface,
     /// drawn by its opacity from `u` in [0, 1)).
     pub fn passes(&self, scene: &Scene, bsdf: &Bsdf, u: f32) -> bool {
-        bsdf.masked() && u >= self.opacity(scene, bsdf)
+        bsdf.masked() && u >= bsdf.opacity_at(self.uv(scene), &scene.textures)
     }
 
     /// A ray leaving this point in `dir` (on the side `dir` points to), ending at
