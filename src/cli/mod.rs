@@ -272,8 +272,12 @@ fn run_solve(scene: &Scene, bvh: &Bvh, st: &SolveSettings, quiet: bool) -> Resul
     if !quiet {
         let s = &sol.stats;
         eprintln!(
-            "radtrace: solved: {} patches, {} elements, {} vertices (mesh size {:.4}); {} light + {} patch shots ({} reusing their first), {} rays, {:.2}% left to {} photons ({} rays); {:.2} s{}",
+            "radtrace: solved: {} patches{}, {} elements, {} vertices (mesh size {:.4}); {} light + {} patch shots ({} reusing their first), {} rays, {:.2}% left to {} photons ({} rays); {:.2} s{}",
             s.patches,
+            match s.refined_patches {
+                0 => String::new(),
+                n => format!(" ({n} holding an object, at half the mesh size)"),
+            },
             s.elements,
             s.vertices,
             st.mesh_size,

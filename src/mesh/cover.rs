@@ -43,10 +43,15 @@ const MAX_OPEN: u32 = STRATA * STRATA / 8;
 const REACH: f32 = 0.5;
 
 impl RadiosityMesh {
-    /// The mesh the solver and a solution file use: [`RadiosityMesh::build`], then
-    /// [`RadiosityMesh::cover`].
+    /// The mesh the solver and a solution file use: [`RadiosityMesh::build`], again
+    /// with the patches that hold a small object at half the mesh size if there are
+    /// any (see [`super::contact`]), then [`RadiosityMesh::cover`].
     pub fn build_covered(scene: &Scene, mesh_size: f32, accel: &dyn Accel) -> Self {
         let mut mesh = Self::build(scene, mesh_size);
+        let fine = mesh.holding(scene, accel);
+        if !fine.is_empty() {
+            mesh = Self::build_refined(scene, mesh_size, &fine);
+        }
         mesh.cover(scene, accel);
         mesh
     }

@@ -20,6 +20,7 @@ use crate::scene::{Light, Rgb, Scene};
 
 mod albedo;
 mod cells;
+mod contact;
 mod cover;
 mod lattice;
 mod pieces;
@@ -148,6 +149,9 @@ pub struct RadiosityMesh {
     /// Number of front patches: `patches[..front_patches]` follow the scene's shapes
     /// and patches in order; the back twins of two-sided patches come after them.
     pub front_patches: u32,
+    /// Front patches meshed at half the mesh size because they hold a small object
+    /// (see [`contact`]).
+    pub refined: u32,
 }
 
 /// Vertex weights for interpolating at a point: up to four vertices.
@@ -507,6 +511,14 @@ impl RadiosityMesh {
     /// diffuse reflectance that emits nothing keeps no radiosity: it gets the fewest
     /// vertices that still locate a hit (one element per patch).
     pub fn build(scene: &Scene, mesh_size: f32) -> Self {
+        Self::build_refined(scene, mesh_size, &std::collections::HashSet::new())
+    }
+
+    /// [`RadiosityMesh::build`], with the patches named in `fine` (by shape and the
+    /// index of their first polygon: [`MeshPatch::shape`], [`MeshPatch::local`])
+    /// meshed at half the mesh size (see [`contact`]). Polygons merge into patches
+    /// as at the full size, so the patches are the same.
+    fn build_refined(scene: &Scene, mesh_size: f32, fine: &std::collections::HashSet<(u32, u32)>) -> Self {
         let mut mesh = RadiosityMesh {
             mesh_size,
             patches: Vec::new(),
@@ -514,6 +526,7 @@ impl RadiosityMesh {
             shape_first_patch: Vec::with_capacity(scene.shapes.len()),
             patch_map: Vec::with_capacity(scene.shapes.len()),
             front_patches: 0,
+            refined: fine.len() as u32,
         };
         let emitting: std::collections::HashSet<u32> = scene
             .lights
@@ -550,6 +563,11 @@ impl RadiosityMesh {
             let groups = lattice::clusters(&shape.mesh, mesh_size, inert);
             mesh.patch_map.push(groups.of_patch.clone());
             for members in &groups.members {
+                let size = if fine.contains(&(si as u32, members[0])) {
+                    0.5 * size
+                } else {
+                    size
+                };
                 let patch_index = mesh.patches.len() as u32;
                 let first_vertex = mesh.vertices.len() as u32;
                 let mut grids = Vec::new();

@@ -853,3 +853,64 @@ fn a_masked_patch_sends_light_from_the_part_that_is_there() {
     let cells = m.shoot_cells(0, 16, |_| Vec2::splat(0.5), &[]);
     assert!(!cells.is_empty() && cells.iter().all(|c| (c.weight - 0.75).abs() < 1e-6));
 }
+
+#[test]
+fn a_small_patch_holding_an_object_is_meshed_at_half_the_mesh_size() {
+    // A 1.2 x 0.8 table top at a mesh size of 0.2: 6 x 4 elements, 35 vertices.
+    let corners = [
+        v(-0.6, -0.4, 0.0),
+        v(0.6, -0.4, 0.0),
+        v(0.6, 0.4, 0.0),
+        v(-0.6, 0.4, 0.0),
+    ];
+    let grey = Vec3::splat(0.5);
+    let table_with = |table: TriMesh, object: Option<(Vec3, Vec3)>| {
+        let mut shapes = vec![(table, grey)];
+        if let Some((lo, hi)) = object {
+            shapes.extend(
+                crate::testutil::box_outside(lo, hi)
+                    .into_iter()
+                    .map(|m| (m, grey)),
+            );
+        }
+        let s = scene(shapes, vec![], &[]);
+        let mesh = RadiosityMesh::build_covered(&s, 0.2, &Bvh::build(&s));
+        (
+            mesh.patches[0].element_count,
+            mesh.patches[0].vertex_count,
+            mesh.refined,
+        )
+    };
+    let teapot = Some((v(-0.15, -0.15, 0.0), v(0.15, 0.15, 0.3)));
+    // A box a quarter of the table wide resting on it (9 % of its area): half size.
+    assert_eq!(table_with(quad(corners), teapot), (96, 117, 1));
+    // Merged from many triangles (a lattice) alike: four times the cells.
+    let (bare, _, _) = table_with(split_quad(corners, 4), None);
+    let (fine, _, refined) = table_with(split_quad(corners, 4), teapot);
+    assert_eq!((fine, refined), (4 * bare, 1), "lattice: {bare} -> {fine} cells");
+    // Nothing on it, or the box higher than a mesh size above it: unchanged.
+    assert_eq!(table_with(quad(corners), None), (24, 35, 0));
+    assert_eq!(
+        table_with(quad(corners), Some((v(-0.15, -0.15, 0.25), v(0.15, 0.15, 0.5)))),
+        (24, 35, 0)
+    );
+    // A crumb (a 4 cm cube, 0.2 % of the area): unchanged.
+    assert_eq!(
+        table_with(quad(corners), Some((v(0.0, 0.0, 0.0), v(0.04, 0.04, 0.04)))),
+        (24, 35, 0)
+    );
+    // Covered wholly (a lid lying on it, a hidden face): unchanged.
+    assert_eq!(
+        table_with(quad(corners), Some((v(-0.7, -0.5, 0.0), v(0.7, 0.5, 0.1)))),
+        (24, 35, 0)
+    );
+    // A floor 4 x 4 (400 elements) under the same box: its elements are small beside
+    // it already.
+    let floor = quad([
+        v(-2.0, -2.0, 0.0),
+        v(2.0, -2.0, 0.0),
+        v(2.0, 2.0, 0.0),
+        v(-2.0, 2.0, 0.0),
+    ]);
+    assert_eq!(table_with(floor, teapot), (400, 441, 0));
+}

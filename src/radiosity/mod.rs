@@ -204,6 +204,9 @@ pub struct SolveStats {
     pub vertices: u64,
     /// Patches.
     pub patches: u64,
+    /// Patches meshed at half the mesh size: they hold a small object.
+    #[serde(default)]
+    pub refined_patches: u64,
     /// Power emitted by all light sources (mean of RGB, W).
     pub emitted_power: f64,
     /// Unshot power left, as a fraction of the reference power.
@@ -323,6 +326,7 @@ fn solve_inner(
             elements: mesh.element_count() as u64,
             vertices: nv as u64,
             patches: mesh.patches.len() as u64,
+            refined_patches: u64::from(mesh.refined),
             ..Default::default()
         },
         mesh,

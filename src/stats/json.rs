@@ -55,6 +55,8 @@ pub struct SolveFigures {
     pub tolerance: f32,
     /// Patches.
     pub patches: u64,
+    /// Patches meshed at half the mesh size (they hold a small object).
+    pub refined_patches: u64,
     /// Mesh elements.
     pub elements: u64,
     /// Mesh vertices.
@@ -98,6 +100,7 @@ impl SolveFigures {
             shoot_samples: sol.settings.shoot_samples,
             tolerance: sol.settings.tolerance,
             patches: s.patches,
+            refined_patches: s.refined_patches,
             elements: s.elements,
             vertices: s.vertices,
             shots: s.light_shots + s.patch_shots,

@@ -163,12 +163,14 @@ fn forged(payload: &[u8]) -> Vec<u8> {
 #[test]
 fn the_test_solution_is_not_trivial() {
     let (scene, sol) = solved();
-    // 6 walls of 2x2 at mesh size 0.5: 4x4 quads, 25 vertices each; the table
+    // 6 walls of 2x2 at mesh size 0.5: 4x4 quads, 25 vertices each, but the floor,
+    // which holds the table half a metre over it, at half the size: 8x8 quads, 81
+    // vertices (see `mesh::contact`); the table
     // (0.6 wide) 2x2 quads, 9 vertices.
     // The table is two-sided, so it has a back twin with 9 more vertices.
     assert_eq!(sol.mesh.patches.len(), 8);
-    assert_eq!(sol.mesh.vertices.len(), 6 * 25 + 9 + 9);
-    assert_eq!(sol.general.len(), 168);
+    assert_eq!(sol.mesh.vertices.len(), 5 * 25 + 81 + 9 + 9);
+    assert_eq!(sol.general.len(), 224);
     assert_eq!(sol.stats.light_shots, 1);
     assert!(sol.stats.patch_shots > 0);
     assert!(sol.lists.iter().all(|l| !l.is_empty() && l.len() <= 2));
@@ -213,7 +215,7 @@ fn round_trip_gives_the_same_solution() {
     assert_eq!(&bytes[42..46], &0.5f32.to_le_bytes());
     assert_eq!(&bytes[46..50], &2u32.to_le_bytes());
     // ...followed (after the 44 bytes of settings) by the vertex count of general.
-    assert_eq!(&bytes[86..94], &168u64.to_le_bytes());
+    assert_eq!(&bytes[86..94], &224u64.to_le_bytes());
 
     // Saving again replaces the file with the same bytes (deterministic).
     save(sol, scene, &path).unwrap();
@@ -443,11 +445,11 @@ fn a_file_on_another_mesh_is_refused() {
     let msg = load_err(
         dir.path(),
         "finer.rts",
-        &forged(&payload(&finer, g, l, ss, 168, counts(sol))),
+        &forged(&payload(&finer, g, l, ss, 224, counts(sol))),
     );
     assert!(
-        msg.contains("was computed on another radiosity mesh (168 vertices in")
-            && msg.contains("this radtrace makes 518 vertices")
+        msg.contains("was computed on another radiosity mesh (224 vertices in")
+            && msg.contains("this radtrace makes 726 vertices")
             && msg.contains("run `radtrace solve` again"),
         "{msg}"
     );
@@ -465,20 +467,20 @@ fn a_file_on_another_mesh_is_refused() {
     let msg = load_err(
         dir.path(),
         "shifted.rts",
-        &forged(&payload(st, g, &lists, ss, 168, c)),
+        &forged(&payload(st, g, &lists, ss, 224, c)),
     );
     assert!(msg.contains("another radiosity mesh"), "{msg}");
     // The values do not fit the counts the file itself gives.
     let msg = load_err(
         dir.path(),
         "short.rts",
-        &forged(&payload(st, &g[1..], l, ss, 168, counts(sol))),
+        &forged(&payload(st, &g[1..], l, ss, 224, counts(sol))),
     );
     assert!(msg.contains("damaged: the radiosity values do not fit"), "{msg}");
     let msg = load_err(
         dir.path(),
         "lists.rts",
-        &forged(&payload(st, g, &l[1..], ss, 168, counts(sol))),
+        &forged(&payload(st, g, &l[1..], ss, 224, counts(sol))),
     );
     assert!(msg.contains("damaged: the radiosity values do not fit"), "{msg}");
 }
@@ -493,7 +495,7 @@ fn bad_values_are_damage() {
     let msg = load_err(
         dir.path(),
         "nan.rts",
-        &forged(&payload(st, &nan, l, ss, 168, counts(sol))),
+        &forged(&payload(st, &nan, l, ss, 224, counts(sol))),
     );
     assert!(
         msg.ends_with("damaged: a non-finite general radiosity at vertex 17"),
@@ -504,7 +506,7 @@ fn bad_values_are_damage() {
     let msg = load_err(
         dir.path(),
         "inf.rts",
-        &forged(&payload(st, g, &inf, ss, 168, counts(sol))),
+        &forged(&payload(st, g, &inf, ss, 224, counts(sol))),
     );
     assert!(
         msg.ends_with("damaged: a non-finite value in the source list of patch 3"),
@@ -517,7 +519,7 @@ fn bad_values_are_damage() {
     let msg = load_err(
         dir.path(),
         "stats.rts",
-        &forged(&payload(st, g, l, &stats, 168, counts(sol))),
+        &forged(&payload(st, g, l, &stats, 224, counts(sol))),
     );
     assert!(msg.contains("damaged: a non-finite statistic"), "{msg}");
     for size in [0.0, -0.5, f32::NAN, f32::INFINITY] {
@@ -528,7 +530,7 @@ fn bad_values_are_damage() {
         let msg = load_err(
             dir.path(),
             "size.rts",
-            &forged(&payload(&s, g, l, ss, 168, counts(sol))),
+            &forged(&payload(&s, g, l, ss, 224, counts(sol))),
         );
         assert!(msg.contains("damaged: invalid mesh size"), "{msg}");
     }
@@ -537,7 +539,7 @@ fn bad_values_are_damage() {
     let msg = load_err(
         dir.path(),
         "light.rts",
-        &forged(&payload(st, g, &src, ss, 168, counts(sol))),
+        &forged(&payload(st, g, &src, ss, 224, counts(sol))),
     );
     assert!(
         msg.contains("the source list of patch 5 names a source the scene does not have"),
@@ -547,11 +549,11 @@ fn bad_values_are_damage() {
     let msg = load_err(
         dir.path(),
         "patch.rts",
-        &forged(&payload(st, g, &src, ss, 168, counts(sol))),
+        &forged(&payload(st, g, &src, ss, 224, counts(sol))),
     );
     assert!(msg.contains("patch 5 names a source"), "{msg}");
     // Trailing bytes inside the payload, and a payload cut short.
-    let mut p = payload(st, g, l, ss, 168, counts(sol));
+    let mut p = payload(st, g, l, ss, 224, counts(sol));
     p.push(0);
     let msg = load_err(dir.path(), "trail.rts", &forged(&p));
     assert!(msg.contains("damaged: cannot decode"), "{msg}");
