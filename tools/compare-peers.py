@@ -281,6 +281,7 @@ MITSUBA_RENDER = r"""
 import json, os, sys, time
 import mitsuba as mi
 scene_file, out, spp, seed, defines = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), json.loads(sys.argv[5])
+sensor = int(sys.argv[6]) if len(sys.argv) > 6 else 0
 for v in (["llvm_ad_rgb", "scalar_rgb"] if os.environ.get("DRJIT_LIBLLVM_PATH") else ["scalar_rgb"]):
     try:
         mi.set_variant(v)
@@ -296,7 +297,8 @@ depth = re.search(r"max_depth = (\d+)", str(scene.integrator()))
 depth = int(depth.group(1)) if depth else -1
 depth = -1 if depth >= 2**31 else depth
 t = time.perf_counter()
-img = mi.render(scene, integrator=mi.load_dict({"type": "path", "max_depth": depth}), spp=spp, seed=seed)
+img = mi.render(scene, integrator=mi.load_dict({"type": "path", "max_depth": depth}), spp=spp, seed=seed,
+                sensor=scene.sensors()[sensor])
 bmp = mi.Bitmap(img)
 wall = time.perf_counter() - t
 bmp.write(out)
@@ -317,12 +319,13 @@ def mitsuba_env():
     return env
 
 
-def mitsuba_render(scene: Path, out: Path, spp: int, seed: int, defines: dict) -> dict:
-    """Renders with Mitsuba's path tracer in a fresh process; returns its render time
-    (as tools/mitsuba-reference --time reports it) and the process's."""
+def mitsuba_render(scene: Path, out: Path, spp: int, seed: int, defines: dict, sensor: int = 0) -> dict:
+    """Renders sensor `sensor` with Mitsuba's path tracer in a fresh process; returns its
+    render time (as tools/mitsuba-reference --time reports it) and the process's."""
     t = time.perf_counter()
     r = subprocess.run(
-        [sys.executable, "-c", MITSUBA_RENDER, str(scene), str(out), str(spp), str(seed), json.dumps(defines)],
+        [sys.executable, "-c", MITSUBA_RENDER, str(scene), str(out), str(spp), str(seed), json.dumps(defines),
+         str(sensor)],
         capture_output=True, text=True, env=mitsuba_env(),
     )
     if r.returncode != 0:
@@ -377,17 +380,18 @@ def reference_key(scene: Path, defines: dict) -> str:
     return h.hexdigest()[:12]
 
 
-def reference(args, scene: Path, defines: dict, given=None) -> Path:
-    """The Mitsuba reference of `scene`: `given`, else one rendered at
+def reference(args, scene: Path, defines: dict, given=None, sensor: int = 0) -> Path:
+    """The Mitsuba reference of `scene`'s sensor `sensor`: `given`, else one rendered at
     --reference-spp and cached in the venv by the scene's contents."""
     if given:
         return Path(given)
     cache = args.venv / "references"
     cache.mkdir(parents=True, exist_ok=True)
-    ref = cache / f"{scene.stem}-{reference_key(scene, defines)}-{args.reference_spp}spp.exr"
+    view = f"-view{sensor}" if sensor else ""
+    ref = cache / f"{scene.stem}{view}-{reference_key(scene, defines)}-{args.reference_spp}spp.exr"
     if not ref.exists():
         print(f"compare-peers: Mitsuba reference, {args.reference_spp} spp (cached in {ref})", file=sys.stderr)
-        mitsuba_render(scene, ref, args.reference_spp, 0, defines)
+        mitsuba_render(scene, ref, args.reference_spp, 0, defines, sensor)
     return ref
 
 
@@ -458,12 +462,12 @@ def ensure_package(module: str, package: str) -> None:
         subprocess.run([sys.executable, "-m", "pip", "install", "-q", package], check=True)
 
 
-def cycles_render(args, scene: Path, out: Path, spp: int, denoise: bool, defines: dict) -> dict:
+def cycles_render(args, scene: Path, out: Path, spp: int, denoise: bool, defines: dict, sensor: int = 0) -> dict:
     """Renders with Blender Cycles (tools/cycles_render.py) in a fresh process: the
     render call's time and the process's, or the reason the scene cannot be carried
     over (`error`)."""
     cmd = [sys.executable, str(CYCLES), str(scene), str(out), "--spp", str(spp),
-           "--threads", str(args.threads), "--seed", "1"] + (["--denoise"] if denoise else [])
+           "--threads", str(args.threads), "--seed", "1", "--sensor", str(sensor)] + (["--denoise"] if denoise else [])
     for k, v in defines.items():
         cmd += ["-D", f"{k}={v}"]
     t = time.perf_counter()
@@ -510,30 +514,35 @@ def curves(args, exe: str):
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         for entry in args.curve_scenes:
-            scene = Path(entry) if Path(entry).is_absolute() else REPO / entry
+            # SCENE or SCENE:K, sensor (view) K.
+            path, sensor = entry, 0
+            if ":" in entry and entry.rsplit(":", 1)[1].isdigit():
+                path, sensor = entry.rsplit(":", 1)[0], int(entry.rsplit(":", 1)[1])
+            scene = Path(path) if Path(path).is_absolute() else REPO / path
+            title = scene.name + (f", view {sensor}" if sensor else "")
             defines = mitsuba_defines(exe, scene, work)
-            ref = reference(args, scene, defines)
+            ref = reference(args, scene, defines, sensor=sensor)
             points = []
             for q in QUALITY:
-                print(f"compare-peers: radtrace --quality {q} on {scene.name}", file=sys.stderr)
+                print(f"compare-peers: radtrace --quality {q} on {title}", file=sys.stderr)
 
                 def run():
                     t = time.perf_counter()
                     subprocess.run([exe, "render", str(scene), "-o", str(work / "r.exr"), "-q", "--quality", q,
-                                    "--threads", str(args.threads)], check=True)
+                                    "--threads", str(args.threads), "--view", str(sensor)], check=True)
                     return {"process_s": time.perf_counter() - t}
                 r = best_of(args.rounds, run)
                 points.append({"renderer": "radtrace", "setting": q, "seconds": r["process_s"],
                                "flip": flip(exe, ref, work / "r.exr")})
             for spp in args.curve_mitsuba_spp:
-                print(f"compare-peers: Mitsuba {spp} spp on {scene.name}", file=sys.stderr)
-                r = best_of(args.rounds, lambda: mitsuba_render(scene, work / "m.exr", spp, 1, defines))
+                print(f"compare-peers: Mitsuba {spp} spp on {title}", file=sys.stderr)
+                r = best_of(args.rounds, lambda: mitsuba_render(scene, work / "m.exr", spp, 1, defines, sensor))
                 points.append({"renderer": "Mitsuba 3", "setting": f"{spp} spp", "seconds": r["process_s"],
                                "render_s": r["render_s"], "flip": flip(exe, ref, work / "m.exr")})
             check = None
             if cycles:
-                print(f"compare-peers: Cycles check, {args.cycles_check_spp} spp on {scene.name}", file=sys.stderr)
-                c = cycles_render(args, scene, work / "c.exr", args.cycles_check_spp, False, defines)
+                print(f"compare-peers: Cycles check, {args.cycles_check_spp} spp on {title}", file=sys.stderr)
+                c = cycles_render(args, scene, work / "c.exr", args.cycles_check_spp, False, defines, sensor)
                 if "error" in c:
                     check = {"skipped": c["error"]}
                 else:
@@ -544,12 +553,13 @@ def curves(args, exe: str):
                 print(f"compare-peers: Cycles check: {check}", file=sys.stderr)
                 if "skipped" not in check:
                     for spp in args.cycles_spp:
-                        print(f"compare-peers: Cycles + OIDN {spp} spp on {scene.name}", file=sys.stderr)
-                        r = best_of(args.rounds, lambda: cycles_render(args, scene, work / "c.exr", spp, True, defines))
+                        print(f"compare-peers: Cycles + OIDN {spp} spp on {title}", file=sys.stderr)
+                        r = best_of(args.rounds,
+                                    lambda: cycles_render(args, scene, work / "c.exr", spp, True, defines, sensor))
                         points.append({"renderer": "Cycles + OIDN", "setting": f"{spp} spp",
                                        "seconds": r["process_s"], "render_s": r["render_s"],
                                        "flip": flip(exe, ref, work / "c.exr")})
-            rows.append({"scene": scene.name, "reference_spp": args.reference_spp, "points": points,
+            rows.append({"scene": title, "reference_spp": args.reference_spp, "points": points,
                          "cycles_check": check})
     print()
     print(f"FLIP against seconds (whole process, {args.threads} threads; mean FLIP against Mitsuba path "
@@ -629,8 +639,9 @@ def main():
     ap.add_argument("--curves", action="store_true",
                     help="FLIP against seconds for radtrace's quality dial, Mitsuba and denoised Cycles")
     ap.add_argument("--curve-scenes", nargs="+",
-                    default=["scenes/cornell-box/cornell-box.xml", "scenes/paper-room/paper-room.xml"],
-                    help="scenes of --curves (sensor 0)")
+                    default=["scenes/cornell-box/cornell-box.xml", "scenes/paper-room/paper-room.xml",
+                             "scenes/paper-room/paper-room.xml:1"],
+                    help="scenes of --curves; SCENE:K renders sensor (view) K")
     ap.add_argument("--curve-mitsuba-spp", type=int, nargs="+", default=[16, 64, 256])
     ap.add_argument("--cycles-spp", type=int, nargs="+", default=[4, 16, 64],
                     help="samples per pixel of Cycles (with OpenImageDenoise) in --curves")

@@ -2,15 +2,21 @@
 tools/compare-peers.py: the same scene, read by Mitsuba's own loader, rebuilt in Cycles.
 
     python cycles_render.py SCENE.xml OUT.exr --spp N [--denoise] [--threads T]
-                            [--seed S] [-D NAME=VALUE ...]
+                            [--seed S] [--sensor K] [-D NAME=VALUE ...]
 
 Prints one JSON line: the render call's wall time (`render_s`, OpenImageDenoise
 included when on), the samples, and Blender's version.
 
 What it carries over: triangle meshes (Mitsuba merges the meshes of one BSDF; that
 changes nothing), `diffuse` reflectance (also inside `twosided`; a one-sided diffuse
-surface is black from behind, as in Mitsuba), `area` emitters (radiance, front side
-only, as in Mitsuba), and the perspective sensor (`to_world`, `x_fov`, film size).
+surface is black from behind, as in Mitsuba), a `blendbsdf` of a `diffuse` and a smooth
+`conductor` of constant reflectance (Cycles' mix of a diffuse and a sharp glossy BSDF;
+the conductor's Fresnel term is left out, so it is exact for `material="none"`),
+`area` emitters (radiance, front side only, as in Mitsuba), `spot` lights (intensity
+in W/sr as a Cycles spot of power 4 pi I with no radius; Mitsuba's falloff, linear in
+the angle from `beam_width` to `cutoff_angle`, as Cycles' spot size and blend, which
+ramp the same transition by a smoothstep in the cosine), and the perspective sensor
+`--sensor` (`to_world`, `x_fov`, film size).
 No world light. Anything else (other BSDFs, textures, analytic shapes, other emitters)
 is refused with a message: the comparison would not be of the same scene.
 Path length is unbounded in effect (1024 bounces), as Mitsuba's `max_depth` -1.
@@ -24,7 +30,23 @@ import time
 import numpy as np
 
 
-def read_scene(path: str, defines: dict):
+def rgb(value) -> list:
+    """Three floats of a Mitsuba colour parameter (a uniform spectrum holds one)."""
+    v = [float(x) for x in np.array(value).reshape(-1)[:3]]
+    return v * 3 if len(v) == 1 else v
+
+
+def spot(mi, e):
+    """A Mitsuba spot light: its to_world, intensity (W/sr) and angles (degrees)."""
+    ep = mi.traverse(e)
+    if "intensity.value" not in ep:
+        sys.exit("cycles_render: a spot light's intensity is not a constant colour")
+    return {"to_world": np.array(ep["to_world"].matrix, dtype=np.float64).reshape(4, 4),
+            "intensity": rgb(ep["intensity.value"]),
+            "cutoff": float(ep["cutoff_angle"]), "beam": float(ep["beam_width"])}
+
+
+def read_scene(path: str, defines: dict, sensor_index: int = 0):
     import mitsuba as mi
 
     mi.set_variant("scalar_rgb")
@@ -37,33 +59,41 @@ def read_scene(path: str, defines: dict):
         pos = np.array(sh.vertex_positions_buffer(), dtype=np.float64).reshape(-1, 3)
         faces = np.array(sh.faces_buffer(), dtype=np.int64).reshape(-1, 3)
         bsdf = sh.bsdf()
-        kind = str(bsdf).split("[")[0]
+        text = str(bsdf)
         bp = mi.traverse(bsdf)
-        if kind == "TwoSided":
-            twosided, key = True, "brdf_0.reflectance.value"
-        elif kind == "SmoothDiffuse":
-            twosided, key = False, "reflectance.value"
+        twosided = text.startswith("TwoSided")
+        pre = "brdf_0." if twosided else ""
+        mirror = None
+        if "BlendBSDF" in text and text.count("SmoothDiffuse") >= 1 and "SmoothConductor" in text \
+                and f"{pre}bsdf_1.specular_reflectance.value" in bp and f"{pre}bsdf_0.reflectance.value" in bp:
+            rho = rgb(bp[f"{pre}bsdf_0.reflectance.value"])
+            mirror = {"weight": float(np.array(bp[f"{pre}weight.value"]).reshape(-1)[0]),
+                      "reflectance": rgb(bp[f"{pre}bsdf_1.specular_reflectance.value"])}
+        elif (twosided or text.startswith("SmoothDiffuse")) and "BlendBSDF" not in text and f"{pre}reflectance.value" in bp:
+            rho = rgb(bp[f"{pre}reflectance.value"])
         else:
-            sys.exit(f"cycles_render: {path}: shape '{name}': BSDF {kind} is not carried over (diffuse only)")
-        if key not in bp:
-            sys.exit(f"cycles_render: {path}: shape '{name}': its BSDF is not a diffuse one of a constant colour (only those are carried over)")
-        rho = [float(x) for x in np.array(bp[key]).reshape(-1)[:3]]
+            kind = text.split("[")[0]
+            sys.exit(f"cycles_render: {path}: shape '{name}': BSDF {kind} is not carried over (a diffuse one of a "
+                     "constant colour, or a blend of one and a smooth conductor)")
         radiance = None
         if sh.emitter() is not None:
             ep = mi.traverse(sh.emitter())
             if "radiance.value" not in ep:
                 sys.exit(f"cycles_render: {path}: shape '{name}': emitter radiance is not a constant colour")
-            radiance = [float(x) for x in np.array(ep["radiance.value"]).reshape(-1)[:3]]
+            radiance = rgb(ep["radiance.value"])
         shapes.append({"name": name, "pos": pos, "faces": faces, "rho": rho, "twosided": twosided,
-                       "radiance": radiance})
-    others = [e for e in scene.emitters() if not str(e).startswith("AreaLight")]
+                       "radiance": radiance, "mirror": mirror})
+    spots = [spot(mi, e) for e in scene.emitters() if str(e).startswith("SpotLight")]
+    others = [e for e in scene.emitters() if not str(e).startswith(("AreaLight", "SpotLight"))]
     if others:
-        sys.exit(f"cycles_render: {path}: {len(others)} emitter(s) not on a shape (point, spot, envmap ...) are not carried over")
-    sensor = scene.sensors()[0]
+        sys.exit(f"cycles_render: {path}: {len(others)} emitter(s) not on a shape and not spot lights (point, envmap ...) are not carried over")
+    if not 0 <= sensor_index < len(scene.sensors()):
+        sys.exit(f"cycles_render: {path}: no sensor {sensor_index} (it has {len(scene.sensors())})")
+    sensor = scene.sensors()[sensor_index]
     sp = mi.traverse(sensor)
     to_world = np.array(sp["to_world"].matrix, dtype=np.float64).reshape(4, 4)
     size = [int(x) for x in sensor.film().size()]
-    return shapes, {"to_world": to_world, "x_fov": float(sp["x_fov"][0] if hasattr(sp["x_fov"], "__len__") else sp["x_fov"]), "size": size}
+    return shapes, spots, {"to_world": to_world, "x_fov": float(sp["x_fov"][0] if hasattr(sp["x_fov"], "__len__") else sp["x_fov"]), "size": size}
 
 
 def material(bpy, s):
@@ -79,6 +109,17 @@ def material(bpy, s):
     diffuse.inputs["Roughness"].default_value = 0.0
     geo = nt.nodes.new("ShaderNodeNewGeometry")
     surface = diffuse.outputs["BSDF"]
+    if s["mirror"] is not None:
+        # Mitsuba's blendbsdf: (1 - weight) diffuse + weight mirror.
+        glossy = nt.nodes.new("ShaderNodeBsdfGlossy")
+        glossy.distribution = "SHARP" if "SHARP" in [i.identifier for i in glossy.bl_rna.properties["distribution"].enum_items] else "GGX"
+        glossy.inputs["Color"].default_value = (*s["mirror"]["reflectance"], 1.0)
+        glossy.inputs["Roughness"].default_value = 0.0
+        mixed = nt.nodes.new("ShaderNodeMixShader")
+        mixed.inputs["Fac"].default_value = s["mirror"]["weight"]
+        nt.links.new(surface, mixed.inputs[1])
+        nt.links.new(glossy.outputs["BSDF"], mixed.inputs[2])
+        surface = mixed.outputs["Shader"]
     if not s["twosided"]:
         black = nt.nodes.new("ShaderNodeBsdfDiffuse")
         black.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
@@ -106,7 +147,7 @@ def material(bpy, s):
     return m
 
 
-def build(bpy, shapes, cam, args):
+def build(bpy, shapes, spots, cam, args):
     import mathutils
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -117,6 +158,21 @@ def build(bpy, shapes, cam, args):
         mesh.update()
         obj = bpy.data.objects.new(s["name"], mesh)
         obj.data.materials.append(material(bpy, s))
+        scene.collection.objects.link(obj)
+    for i, sl in enumerate(spots):
+        # Mitsuba's spot shines along its +z, Blender's along its -z.
+        peak = max(max(sl["intensity"]), 1e-12)
+        light = bpy.data.lights.new(f"spot{i}", type="SPOT")
+        light.color = [c / peak for c in sl["intensity"]]
+        light.energy = 4.0 * np.pi * peak
+        light.shadow_soft_size = 0.0
+        if hasattr(light, "use_soft_falloff"):
+            light.use_soft_falloff = False
+        cutoff, beam = np.radians(sl["cutoff"]), np.radians(sl["beam"])
+        light.spot_size = 2.0 * cutoff
+        light.spot_blend = float((np.cos(beam) - np.cos(cutoff)) / (1.0 - np.cos(cutoff)))
+        obj = bpy.data.objects.new(f"spot{i}", light)
+        obj.matrix_world = mathutils.Matrix((sl["to_world"] @ np.diag([1.0, -1.0, -1.0, 1.0])).tolist())
         scene.collection.objects.link(obj)
     cam_data = bpy.data.cameras.new("camera")
     cam_data.sensor_fit = "HORIZONTAL"
@@ -160,13 +216,14 @@ def main():
     ap.add_argument("--denoise", action="store_true")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--sensor", type=int, default=0, help="which sensor (view) of the scene")
     ap.add_argument("-D", action="append", default=[], metavar="NAME=VALUE")
     args = ap.parse_args()
     defines = dict(d.split("=", 1) for d in args.D)
-    shapes, cam = read_scene(args.scene, defines)
+    shapes, spots, cam = read_scene(args.scene, defines, args.sensor)
     import bpy
 
-    scene = build(bpy, shapes, cam, args)
+    scene = build(bpy, shapes, spots, cam, args)
     scene.render.filepath = args.out
     t = time.perf_counter()
     bpy.ops.render.render(write_still=False)
