@@ -22,6 +22,7 @@ use std::collections::HashSet;
 
 use rayon::prelude::*;
 
+use super::cover::shuts;
 use super::{Domain, RadiosityMesh};
 use crate::accel::{Accel, Ray};
 use crate::interaction::offset_from;
@@ -33,8 +34,8 @@ const MIN_ELEMENTS: u32 = 4;
 /// ...and at most this many (a larger patch's elements are small beside what it holds).
 const MAX_ELEMENTS: u32 = 64;
 /// Share of the patch's area over which another surface must come within a mesh size
-/// (along the normal), or which lies under a closed object: a teapot on a 1.2 x 0.8 m table covers 7 %, a table's four
-/// legs under its top 1 %.
+/// (along the normal), or which lies under a closed object: a teapot on a 1.2 x 0.8 m
+/// table covers 7 %, a table's four legs under its top 1 %...
 const MIN_SHARE: f32 = 1.0 / 32.0;
 /// ...and at most this: a patch covered over more than half of it is a hidden face
 /// (a shelf's end against the cabinet's side, a block's bottom) or the floor of a
@@ -106,9 +107,7 @@ impl RadiosityMesh {
                 // Met within the mesh size, or from behind: the point is under a
                 // closed object resting on the patch (a box's bottom on a table).
                 if accel.intersect(&ray).is_some_and(|hit| {
-                    let [a, b, c] = scene.shapes[hit.shape as usize].mesh.triangle(hit.tri as usize);
-                    (hit.t <= self.mesh_size || (b - a).cross(c - a).dot(n) > 0.0)
-                        && self.patch_of(scene, hit.shape, hit.tri) != p
+                    shuts(scene, &hit, n, self.mesh_size) && self.patch_of(scene, hit.shape, hit.tri) != p
                 }) {
                     hit_area += 0.25 * piece_area;
                 }

@@ -20,11 +20,11 @@
 //! are recomputed under that rule, so deposits in proportion to the weights over the
 //! shares stay unbiased.
 
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::{Domain, Grid, RadiosityMesh};
-use crate::accel::{Accel, Ray};
+use crate::accel::{Accel, Hit, Ray};
 use crate::interaction::offset_from;
 use crate::sampling::cosine_direction;
 use crate::scene::Scene;
@@ -120,10 +120,9 @@ impl RadiosityMesh {
                 tmin: 0.0,
                 tmax: f32::INFINITY,
             };
-            accel.intersect(&ray).is_some_and(|hit| {
-                let [a, b, c] = scene.shapes[hit.shape as usize].mesh.triangle(hit.tri as usize);
-                hit.t <= reach || (b - a).cross(c - a).dot(dir) > 0.0
-            })
+            accel
+                .intersect(&ray)
+                .is_some_and(|hit| shuts(scene, &hit, dir, reach))
         };
         // Rays `from..` of the strata x strata set that are open, counted up to one
         // past `limit`.
@@ -152,6 +151,14 @@ impl RadiosityMesh {
             _ => open(STRATA, 0, MAX_OPEN) <= MAX_OPEN,
         }
     }
+}
+
+/// Whether `hit`, met by a ray along `dir`, shuts it in: the surface lies within
+/// `reach`, or the ray met it from behind (it started inside a closed object: the floor
+/// under a box resting on it).
+pub(super) fn shuts(scene: &Scene, hit: &Hit, dir: Vec3, reach: f32) -> bool {
+    let [a, b, c] = scene.shapes[hit.shape as usize].mesh.triangle(hit.tri as usize);
+    hit.t <= reach || (b - a).cross(c - a).dot(dir) > 0.0
 }
 
 impl Grid {
