@@ -174,10 +174,15 @@ pub struct SolveArgs {
 }
 
 impl SolveArgs {
-    pub(super) fn settings(&self, scene: &Scene, seed: u64) -> Result<SolveSettings> {
+    pub(super) fn settings(
+        &self,
+        scene: &Scene,
+        accel: &dyn crate::accel::Accel,
+        seed: u64,
+    ) -> Result<SolveSettings> {
         let mesh_size = self
             .mesh_size
-            .unwrap_or_else(|| crate::mesh::default_mesh_size(scene));
+            .unwrap_or_else(|| crate::mesh::default_mesh_size(scene, accel));
         let settings = SolveSettings {
             mesh_size,
             sources_per_patch: self

@@ -19,7 +19,10 @@ pub(super) fn cmd_bench(a: BenchArgs) -> Result<()> {
             },
             repeats: a.repeats,
             solve: (!a.no_solve)
-                .then(|| a.solve.settings(&scene, a.seed))
+                .then(|| {
+                    a.solve
+                        .settings(&scene, &crate::accel::Bvh::build(&scene), a.seed)
+                })
                 .transpose()?,
             solve_scaling: a.solve_scaling,
             dump: a.dump.clone(),

@@ -211,7 +211,7 @@ fn load_all(
         (None, _) => None,
         (Some(_), Some(path)) => Some(t.time("load_solution", || solution::load(path, &scene, &bvh))?),
         (Some((args, seed)), None) => {
-            let st = args.settings(&scene, seed)?;
+            let st = args.settings(&scene, &bvh, seed)?;
             Some(t.time("solve", || run_solve(&scene, &bvh, &st, quiet))?)
         }
     };

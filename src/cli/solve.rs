@@ -14,8 +14,8 @@ pub(super) fn cmd_solve(a: SolveCmdArgs) -> Result<()> {
     with_threads(a.threads, |_| {
         let mut t = Timings::default();
         let scene = t.time("load", || load_scene(&a.scene, a.quiet))?;
-        let st = a.solve.settings(&scene, a.seed)?;
         let bvh = t.time("accel", || Bvh::build(&scene));
+        let st = a.solve.settings(&scene, &bvh, a.seed)?;
         let sol = t.time("solve", || run_solve(&scene, &bvh, &st, a.quiet))?;
         t.time("output", || solution::save(&sol, &scene, &a.output))?;
         if let Some(path) = &a.stats {

@@ -107,7 +107,7 @@ impl RadiosityMesh {
                 // Met within the mesh size, or from behind: the point is under a
                 // closed object resting on the patch (a box's bottom on a table).
                 if accel.intersect(&ray).is_some_and(|hit| {
-                    shuts(scene, &hit, n, self.mesh_size) && self.patch_of(scene, hit.shape, hit.tri) != p
+                    shuts(scene, &hit, n, self.mesh_size) && self.patch_of(scene, &hit) != p
                 }) {
                     hit_area += 0.25 * piece_area;
                 }

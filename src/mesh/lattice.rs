@@ -335,14 +335,7 @@ pub struct LatticeVertex {
 /// Meshes the triangles `surface` (one cluster, wound to face its front) by a lattice
 /// of side `cell`; returns the lattice, its vertices (in offset order) and the area.
 pub fn build(surface: Vec<[Vec3; 3]>, cell: f32) -> (Lattice, Vec<LatticeVertex>, f32) {
-    let normal: Vec3 = surface.iter().map(tri_normal).sum();
-    let axis = if normal.x.abs() >= normal.y.abs() && normal.x.abs() >= normal.z.abs() {
-        0
-    } else if normal.y.abs() >= normal.z.abs() {
-        1
-    } else {
-        2
-    };
+    let axis = dominant_axis(&surface);
     let flat: Vec<[Vec2; 3]> = surface.iter().map(|t| t.map(|p| project(axis, p))).collect();
     let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
     for t in &flat {
@@ -626,4 +619,175 @@ pub fn clusters(mesh: &TriMesh, mesh_size: f32, merge_all: bool) -> Clusters {
         of_patch.push(c);
     }
     Clusters { of_patch, members }
+}
+
+/// How a surface too large for one patch was cut into pieces: a grid of `kx` x `ky`
+/// rectangles of side `step` from `lo`, in the plane perpendicular to `axis`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cut {
+    /// The axis the cutting plane is perpendicular to.
+    pub axis: u8,
+    /// Lattice coordinates of the lower corner of rectangle (0, 0).
+    pub lo: Vec2,
+    /// The rectangles' sides.
+    pub step: Vec2,
+    /// Rectangles along the first coordinate.
+    pub kx: u32,
+    /// Rectangles along the second.
+    pub ky: u32,
+    /// Per rectangle (row by row), its piece's patch counted from the first piece's
+    /// (`u32::MAX`: no surface there).
+    pub piece: Vec<u32>,
+}
+
+impl Cut {
+    /// The piece (counted from the first) holding surface point `p`; the nearest
+    /// rectangle's when rounding puts `p` in an empty one.
+    pub fn piece_at(&self, p: Vec3) -> u32 {
+        let x = (project(self.axis, p) - self.lo) / self.step;
+        let i = (x.x.floor().max(0.0) as u32).min(self.kx - 1);
+        let j = (x.y.floor().max(0.0) as u32).min(self.ky - 1);
+        let k = (j * self.kx + i) as usize;
+        if self.piece[k] != u32::MAX {
+            return self.piece[k];
+        }
+        (0..self.piece.len())
+            .filter(|&r| self.piece[r] != u32::MAX)
+            .min_by_key(|&r| {
+                let (a, b) = ((r as u32 % self.kx) as i64, (r as u32 / self.kx) as i64);
+                (a - i as i64).abs() + (b - j as i64).abs()
+            })
+            .map_or(0, |r| self.piece[r])
+    }
+}
+
+/// The axis a surface's lattice is perpendicular to: that of its summed normal's
+/// largest component.
+fn dominant_axis(surface: &[[Vec3; 3]]) -> u8 {
+    let normal: Vec3 = surface.iter().map(tri_normal).sum();
+    if normal.x.abs() >= normal.y.abs() && normal.x.abs() >= normal.z.abs() {
+        0
+    } else if normal.y.abs() >= normal.z.abs() {
+        1
+    } else {
+        2
+    }
+}
+
+/// Cuts a surface (triangles wound to face its front) whose lattice of side `cell`
+/// would have more than `above` cells along a side into rectangles of at most `side`
+/// cells a side: the triangles clipped to each rectangle that holds any, and the
+/// cut. `None` when the surface fits in one patch.
+pub fn cut(surface: &[[Vec3; 3]], cell: f32, above: u32, side: u32) -> Option<(Vec<Vec<[Vec3; 3]>>, Cut)> {
+    let axis = dominant_axis(surface);
+    let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
+    for t in surface {
+        for p in t {
+            lo = lo.min(project(axis, *p));
+            hi = hi.max(project(axis, *p));
+        }
+    }
+    let span = hi - lo;
+    if !(span.x.is_finite() && span.y.is_finite() && cell > 0.0) {
+        return None;
+    }
+    let along = |s: f32| (s / cell).ceil().max(1.0);
+    let (n, m) = (along(span.x), along(span.y));
+    if n <= above as f32 && m <= above as f32 {
+        return None;
+    }
+    let (kx, ky) = ((n / side as f32).ceil() as u32, (m / side as f32).ceil() as u32);
+    let step = Vec2::new(span.x / kx as f32, span.y / ky as f32).max(Vec2::splat(1e-30));
+    let mut parts: Vec<Vec<[Vec3; 3]>> = vec![Vec::new(); (kx * ky) as usize];
+    for t in surface {
+        let f = t.map(|p| project(axis, p));
+        let cross = |u: Vec2, v: Vec2| u.x * v.y - u.y * v.x;
+        let area = cross(f[1] - f[0], f[2] - f[0]);
+        let rect = |x: Vec2| {
+            let r = ((x - lo) / step).floor();
+            (
+                (r.x.max(0.0) as u32).min(kx - 1),
+                (r.y.max(0.0) as u32).min(ky - 1),
+            )
+        };
+        let tlo = rect(f[0].min(f[1]).min(f[2]));
+        let thi = rect(f[0].max(f[1]).max(f[2]));
+        if tlo == thi || area.abs() <= 1e-12 * span.length_squared() {
+            // Wholly in one rectangle (or seen edge-on): kept whole, where its centre is.
+            let (i, j) = rect((f[0] + f[1] + f[2]) / 3.0);
+            parts[(j * kx + i) as usize].push(*t);
+            continue;
+        }
+        // The point of the triangle's plane over lattice coordinates x.
+        let lift = |x: Vec2| {
+            let l1 = cross(x - f[0], f[2] - f[0]) / area;
+            let l2 = cross(f[1] - f[0], x - f[0]) / area;
+            t[0] + (t[1] - t[0]) * l1 + (t[2] - t[0]) * l2
+        };
+        for j in tlo.1..=thi.1 {
+            for i in tlo.0..=thi.0 {
+                let r0 = lo + step * Vec2::new(i as f32, j as f32);
+                let r1 = r0 + step;
+                let poly = clip_to_rect(&f, r0, r1);
+                for k in 1..poly.len().saturating_sub(1) {
+                    let piece = [lift(poly[0]), lift(poly[k]), lift(poly[k + 1])];
+                    if tri_normal(&piece).length_squared() > 0.0 {
+                        parts[(j * kx + i) as usize].push(piece);
+                    }
+                }
+            }
+        }
+    }
+    let mut piece = vec![u32::MAX; parts.len()];
+    let mut out = Vec::new();
+    for (k, p) in parts.into_iter().enumerate() {
+        if !p.is_empty() {
+            piece[k] = out.len() as u32;
+            out.push(p);
+        }
+    }
+    Some((
+        out,
+        Cut {
+            axis,
+            lo,
+            step,
+            kx,
+            ky,
+            piece,
+        },
+    ))
+}
+
+/// The polygon `poly` clipped to the rectangle [r0, r1] (Sutherland-Hodgman).
+fn clip_to_rect(poly: &[Vec2], r0: Vec2, r1: Vec2) -> Vec<Vec2> {
+    let mut cur: Vec<Vec2> = poly.to_vec();
+    // (axis, bound, keep below)
+    for (axis, bound, below) in [
+        (0, r0.x, false),
+        (0, r1.x, true),
+        (1, r0.y, false),
+        (1, r1.y, true),
+    ] {
+        if cur.is_empty() {
+            break;
+        }
+        let inside = |p: Vec2| if below { p[axis] <= bound } else { p[axis] >= bound };
+        let mut next = Vec::with_capacity(cur.len() + 2);
+        for k in 0..cur.len() {
+            let (a, b) = (cur[k], cur[(k + 1) % cur.len()]);
+            let (ia, ib) = (inside(a), inside(b));
+            if ia {
+                next.push(a);
+            }
+            if ia != ib {
+                let s = (bound - a[axis]) / (b[axis] - a[axis]);
+                let mut x = a + (b - a) * s;
+                x[axis] = bound;
+                next.push(x);
+            }
+        }
+        cur = next;
+    }
+    cur
 }

@@ -24,11 +24,13 @@ mod contact;
 mod cover;
 mod lattice;
 mod pieces;
+mod size;
 
 pub use albedo::{mean_albedo, textured_albedo};
 pub use cells::{point_in_polygon, quarter, ShootCell};
 pub use lattice::Lattice;
 pub use pieces::Piece;
+pub use size::{default_mesh_size, lit_diagonal};
 
 /// The parameter domain of one grid.
 #[derive(Debug, Clone, PartialEq)]
@@ -152,7 +154,23 @@ pub struct RadiosityMesh {
     /// Front patches meshed at half the mesh size because they hold a small object
     /// (see [`contact`]).
     pub refined: u32,
+    /// Surfaces too large for one patch, cut into several (see [`SPLIT_ABOVE`]), by
+    /// the index of their first patch.
+    pub splits: std::collections::HashMap<u32, lattice::Cut>,
 }
+
+/// A surface (one polygon, or a cluster of them) with more than [`SPLIT_ABOVE`]
+/// elements along a side (a ground plane reaching far past the rooms on it) is cut
+/// into patches of at most [`SPLIT_SIDE`] elements a side ([`lattice::cut`]): a patch
+/// is what shoots light and keeps a source list, and one patch far larger than the
+/// rooms it runs through shoots from cells larger than the rooms too (the
+/// classroom's floor, 221 m across: a third of the indirect light was lost). A piece
+/// farther from the rest of the scene's bounds than a quarter of their diagonal (and than
+/// [`SPLIT_SIDE`] elements) gets elements larger by the square of how many times
+/// farther.
+pub const SPLIT_ABOVE: u32 = 64;
+/// See [`SPLIT_ABOVE`].
+pub const SPLIT_SIDE: u32 = 32;
 
 /// Vertex weights for interpolating at a point: up to four vertices.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -199,35 +217,6 @@ impl Interp {
     }
 }
 
-/// The default element size: 1/40 of the bounding-box diagonal of the surfaces that
-/// keep radiosity.
-pub fn default_mesh_size(scene: &Scene) -> f32 {
-    // Over the surfaces that keep radiosity (a sky dome around the scene, an emitting
-    // sphere with no reflectance, would make every element as coarse as its size
-    // asks); over all of them if none does.
-    let reflects = |s: &crate::scene::Shape| {
-        scene
-            .bsdfs
-            .get(s.bsdf as usize)
-            .is_some_and(|b| b.kind.diffuse_albedo().max_element() > 0.0)
-    };
-    let any = scene.shapes.iter().any(reflects);
-    let mut lo = Vec3::splat(f32::INFINITY);
-    let mut hi = Vec3::splat(f32::NEG_INFINITY);
-    for s in scene.shapes.iter().filter(|s| !any || reflects(s)) {
-        if let Some((a, b)) = s.mesh.bounds() {
-            lo = lo.min(a);
-            hi = hi.max(b);
-        }
-    }
-    let d = (hi - lo).length();
-    if d.is_finite() && d > 0.0 {
-        d / 40.0
-    } else {
-        1.0
-    }
-}
-
 /// The parameter domains a scene patch is meshed over: a triangle, a quadrilateral,
 /// a fan of triangles for larger polygons, or a piece of a Bezier patch.
 fn patch_domains(mesh: &crate::geometry::TriMesh, patch: &Patch) -> Vec<Domain> {
@@ -271,6 +260,18 @@ fn patch_domains(mesh: &crate::geometry::TriMesh, patch: &Patch) -> Vec<Domain> 
 fn planar([a, b, c, d]: [Vec3; 4]) -> bool {
     let n = (b - a).cross(c - a).normalize_or_zero();
     n.dot(d - a).abs() <= 1e-5 * (c - a).length().max((d - b).length())
+}
+
+/// Triangles of a surface, wound to face its front.
+type Surface = Vec<[Vec3; 3]>;
+
+/// The bounds of triangles.
+fn tri_bounds(tris: &[[Vec3; 3]]) -> (Vec3, Vec3) {
+    tris.iter()
+        .flatten()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        })
 }
 
 /// The triangles of the scene patches `members` of `mesh` (polygons as fans).
@@ -527,6 +528,7 @@ impl RadiosityMesh {
             patch_map: Vec::with_capacity(scene.shapes.len()),
             front_patches: 0,
             refined: fine.len() as u32,
+            splits: std::collections::HashMap::new(),
         };
         let emitting: std::collections::HashSet<u32> = scene
             .lights
@@ -536,6 +538,24 @@ impl RadiosityMesh {
                 _ => None,
             })
             .collect();
+        // Per shape, the bounds of all the others (how far a cut piece lies from them).
+        let bounds: Vec<(Vec3, Vec3)> = scene
+            .shapes
+            .iter()
+            .map(|s| s.mesh.bounds().unwrap_or((Vec3::INFINITY, Vec3::NEG_INFINITY)))
+            .collect();
+        let union = |a: (Vec3, Vec3), b: (Vec3, Vec3)| (a.0.min(b.0), a.1.max(b.1));
+        let empty = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        let mut before = vec![empty; bounds.len() + 1];
+        for (k, b) in bounds.iter().enumerate() {
+            before[k + 1] = union(before[k], *b);
+        }
+        let mut rest_of = vec![empty; bounds.len()];
+        let mut after = empty;
+        for k in (0..bounds.len()).rev() {
+            rest_of[k] = union(before[k], after);
+            after = union(after, bounds[k]);
+        }
         for (si, shape) in scene.shapes.iter().enumerate() {
             let first_patch = mesh.patches.len() as u32;
             mesh.shape_first_patch.push(first_patch);
@@ -561,20 +581,112 @@ impl RadiosityMesh {
             let inert = black && !emitting.contains(&(si as u32));
             let size = if black { f32::INFINITY } else { mesh_size };
             let groups = lattice::clusters(&shape.mesh, mesh_size, inert);
-            mesh.patch_map.push(groups.of_patch.clone());
+            // Per cluster, the offset of its (first) patch from the shape's first.
+            let mut cluster_patch = Vec::with_capacity(groups.members.len());
             for members in &groups.members {
                 let size = if fine.contains(&(si as u32, members[0])) {
                     0.5 * size
                 } else {
                     size
                 };
-                let patch_index = mesh.patches.len() as u32;
-                let first_vertex = mesh.vertices.len() as u32;
-                let mut grids = Vec::new();
-                let mut area = 0.0;
-                let mut elements = 0;
-                if members.len() == 1 {
-                    for domain in patch_domains(&shape.mesh, &shape.mesh.patches[members[0] as usize]) {
+                cluster_patch.push(mesh.patches.len() as u32 - first_patch);
+                let (reflectance, opacity) = if tris_of.is_empty() {
+                    (reflectance, 1.0)
+                } else {
+                    let tris = members
+                        .iter()
+                        .flat_map(|&m| tris_of.get(m as usize).into_iter().flatten().copied());
+                    mean_albedo(&shape.mesh, tris, bsdf, &scene.textures)
+                };
+                let domains = if members.len() == 1 {
+                    patch_domains(&shape.mesh, &shape.mesh.patches[members[0] as usize])
+                } else {
+                    Vec::new()
+                };
+                // A surface too large for one patch: pieces, each meshed by a lattice.
+                let flat = domains
+                    .iter()
+                    .all(|d| matches!(d, Domain::Tri(_) | Domain::Quad(_)));
+                let large = members.len() > 1
+                    || flat
+                        && domains.iter().any(|d| {
+                            let (n, m) = grid_size(d, size);
+                            n.max(m) > SPLIT_ABOVE
+                        });
+                let cut = if large && size.is_finite() {
+                    lattice::cut(
+                        &cluster_triangles(&shape.mesh, members),
+                        size,
+                        SPLIT_ABOVE,
+                        SPLIT_SIDE,
+                    )
+                } else {
+                    None
+                };
+                let (lattices, pieces): (Vec<(Surface, f32)>, Vec<Vec<Domain>>) = match cut {
+                    Some((parts, cut)) => {
+                        mesh.splits.insert(mesh.patches.len() as u32, cut);
+                        let rest = rest_of[si];
+                        let graded = parts
+                            .into_iter()
+                            .map(|tris| {
+                                let (lo, hi) = tri_bounds(&tris);
+                                let d = if rest.0.x <= rest.1.x {
+                                    (lo.max(rest.0) - hi.min(rest.1)).max(Vec3::ZERO).length()
+                                } else {
+                                    0.0
+                                };
+                                let t = (SPLIT_SIDE as f32 * size).max(0.25 * (rest.1 - rest.0).length());
+                                let s = size * (d / t).max(1.0).powi(2);
+                                (tris, s)
+                            })
+                            .collect();
+                        (graded, Vec::new())
+                    }
+                    None if members.len() > 1 => {
+                        (vec![(cluster_triangles(&shape.mesh, members), size)], Vec::new())
+                    }
+                    None => (Vec::new(), vec![domains]),
+                };
+                for (surface, size) in lattices {
+                    let patch_index = mesh.patches.len() as u32;
+                    let first_vertex = mesh.vertices.len() as u32;
+                    let (lat, verts, a) = lattice::build(surface, size);
+                    let elements = lat.cells.len() as u32;
+                    mesh.vertices.extend(verts.into_iter().map(|v| MeshVertex {
+                        p: v.p,
+                        n: v.n,
+                        q: v.q,
+                        area: v.area,
+                        patch: patch_index,
+                    }));
+                    let grids = vec![Grid {
+                        n: lat.n,
+                        m: lat.m,
+                        domain: Domain::Lattice(Box::new(lat)),
+                        first_vertex,
+                        flip: false,
+                        area: a,
+                        covered: Vec::new(),
+                    }];
+                    mesh.push_patch(
+                        si as u32,
+                        members[0],
+                        grids,
+                        first_vertex,
+                        elements,
+                        a,
+                        reflectance,
+                        opacity,
+                    );
+                }
+                for domains in pieces {
+                    let patch_index = mesh.patches.len() as u32;
+                    let first_vertex = mesh.vertices.len() as u32;
+                    let mut grids = Vec::new();
+                    let mut area = 0.0;
+                    let mut elements = 0;
+                    for domain in domains {
                         let (n, m) = grid_size(&domain, size);
                         let mut grid = Grid {
                             domain,
@@ -592,54 +704,25 @@ impl RadiosityMesh {
                         mesh.vertices.extend(verts);
                         grids.push(grid);
                     }
-                } else {
-                    let surface = cluster_triangles(&shape.mesh, members);
-                    let (lat, verts, a) = lattice::build(surface, size);
-                    area = a;
-                    elements = lat.cells.len() as u32;
-                    mesh.vertices.extend(verts.into_iter().map(|v| MeshVertex {
-                        p: v.p,
-                        n: v.n,
-                        q: v.q,
-                        area: v.area,
-                        patch: patch_index,
-                    }));
-                    grids.push(Grid {
-                        n: lat.n,
-                        m: lat.m,
-                        domain: Domain::Lattice(Box::new(lat)),
+                    mesh.push_patch(
+                        si as u32,
+                        members[0],
+                        grids,
                         first_vertex,
-                        flip: false,
-                        area: a,
-                        covered: Vec::new(),
-                    });
+                        elements,
+                        area,
+                        reflectance,
+                        opacity,
+                    );
                 }
-                let (reflectance, opacity) = if tris_of.is_empty() {
-                    (reflectance, 1.0)
-                } else {
-                    let tris = members
-                        .iter()
-                        .flat_map(|&m| tris_of.get(m as usize).into_iter().flatten().copied());
-                    mean_albedo(&shape.mesh, tris, bsdf, &scene.textures)
-                };
-                if opacity < 1.0 {
-                    for v in &mut mesh.vertices[first_vertex as usize..] {
-                        v.area *= opacity;
-                    }
-                }
-                mesh.patches.push(MeshPatch {
-                    shape: si as u32,
-                    local: members[0],
-                    grids,
-                    first_vertex,
-                    vertex_count: mesh.vertices.len() as u32 - first_vertex,
-                    element_count: elements,
-                    area,
-                    reflectance,
-                    opacity,
-                    twin: None,
-                });
             }
+            mesh.patch_map.push(
+                groups
+                    .of_patch
+                    .iter()
+                    .map(|&c| cluster_patch[c as usize])
+                    .collect(),
+            );
         }
         mesh.front_patches = mesh.patches.len() as u32;
         // Back twins of two-sided patches.
@@ -687,6 +770,40 @@ impl RadiosityMesh {
         mesh
     }
 
+    /// Appends a front patch of shape `shape` (first scene patch `local`) made of
+    /// `grids`, whose vertices start at `first_vertex`; a mask's open share
+    /// `opacity` scales its vertices' areas.
+    #[allow(clippy::too_many_arguments)]
+    fn push_patch(
+        &mut self,
+        shape: u32,
+        local: u32,
+        grids: Vec<Grid>,
+        first_vertex: u32,
+        element_count: u32,
+        area: f32,
+        reflectance: Rgb,
+        opacity: f32,
+    ) {
+        if opacity < 1.0 {
+            for v in &mut self.vertices[first_vertex as usize..] {
+                v.area *= opacity;
+            }
+        }
+        self.patches.push(MeshPatch {
+            shape,
+            local,
+            grids,
+            first_vertex,
+            vertex_count: self.vertices.len() as u32 - first_vertex,
+            element_count,
+            area,
+            reflectance,
+            opacity,
+            twin: None,
+        });
+    }
+
     /// A cheap upper estimate of the vertices [`RadiosityMesh::build`] makes (to refuse
     /// a forged tiny mesh size before building): four per polygon, plus the surface
     /// area over the element area, on both sides.
@@ -711,16 +828,27 @@ impl RadiosityMesh {
         self.patches.iter().map(|p| p.element_count as usize).sum()
     }
 
-    /// The patch that triangle `tri` of shape `shape` belongs to.
-    pub fn patch_of(&self, scene: &Scene, shape: u32, tri: u32) -> u32 {
-        let scene_patch = scene.shapes[shape as usize].mesh.tri_patch[tri as usize];
-        self.shape_first_patch[shape as usize] + self.patch_map[shape as usize][scene_patch as usize]
+    /// The (front) patch a ray hit: that of the hit triangle's polygon, or, where the
+    /// polygon was cut into several ([`Split`]), the piece holding the hit.
+    pub fn patch_of(&self, scene: &Scene, hit: &Hit) -> u32 {
+        let mesh = &scene.shapes[hit.shape as usize].mesh;
+        let scene_patch = mesh.tri_patch[hit.tri as usize];
+        let p = self.shape_first_patch[hit.shape as usize]
+            + self.patch_map[hit.shape as usize][scene_patch as usize];
+        match self.splits.get(&p) {
+            Some(cut) => {
+                let [a, b, c] = mesh.triangle(hit.tri as usize);
+                let x = a + (b - a) * hit.bary.x + (c - a) * hit.bary.y;
+                p + cut.piece_at(x)
+            }
+            None => p,
+        }
     }
 
     /// The patch a ray hit: the front patch of the hit triangle, or its back twin
     /// when the back of a two-sided patch was hit.
     pub fn patch_at(&self, scene: &Scene, hit: &Hit, front: bool) -> u32 {
-        let p = self.patch_of(scene, hit.shape, hit.tri);
+        let p = self.patch_of(scene, hit);
         match (front, self.patches[p as usize].twin) {
             (false, Some(t)) => t,
             _ => p,

@@ -401,7 +401,7 @@ fn a_black_sky_dome_neither_sets_the_mesh_size_nor_gets_fine_elements() {
         vec![],
         &[(1, Rgb::ONE)],
     );
-    let size = default_mesh_size(&s);
+    let size = default_mesh_size(&s, &crate::accel::Bvh::build(&s));
     assert!((size - 32f32.sqrt() / 40.0).abs() < 1e-6, "{size}");
     let m = RadiosityMesh::build(&s, size);
     // The dome keeps its 24 patches (its light is shot from them), one element each.
@@ -417,7 +417,7 @@ fn a_black_sky_dome_neither_sets_the_mesh_size_nor_gets_fine_elements() {
     white.bsdfs[white.shapes[1].bsdf as usize].kind = crate::scene::BsdfKind::Diffuse {
         reflectance: Rgb::splat(0.5),
     };
-    assert!(default_mesh_size(&white) > 2.0);
+    assert!(default_mesh_size(&white, &crate::accel::Bvh::build(&white)) > 2.0);
 }
 
 #[test]
@@ -913,4 +913,107 @@ fn a_small_patch_holding_an_object_is_meshed_at_half_the_mesh_size() {
         v(-2.0, 2.0, 0.0),
     ]);
     assert_eq!(table_with(floor, teapot), (400, 441, 0));
+}
+
+/// A room of 4 x 3 x 4 m (walls, ceiling, a point light) standing on a ground plane
+/// 200 m across: the default element size follows the room the light lights, not
+/// the ground plane's bounds (diagonal 283 m: 7 m elements), and the ground plane is
+/// cut into patches of at most 32 elements a side, coarser far from the room.
+fn room_on_a_ground_plane() -> Scene {
+    let mut shapes: Vec<(TriMesh, Rgb)> = box_inside(v(-2., 0., -2.), v(2., 4., 1.))
+        .into_iter()
+        .skip(1)
+        .map(|m| (m, Rgb::splat(0.6)))
+        .collect();
+    // The ground plane at z = -2 (the room's floor is part of it), facing up.
+    let ground = quad([
+        v(-100., -100., -2.),
+        v(100., -100., -2.),
+        v(100., 100., -2.),
+        v(-100., 100., -2.),
+    ]);
+    shapes.insert(0, (ground, Rgb::splat(0.5)));
+    let light = crate::scene::Light::Point {
+        position: v(0., 2., 0.),
+        intensity: Rgb::splat(10.0),
+    };
+    scene(shapes, vec![light], &[])
+}
+
+#[test]
+fn the_default_element_size_follows_the_lit_room_not_a_ground_plane_around_it() {
+    let s = room_on_a_ground_plane();
+    let size = default_mesh_size(&s, &Bvh::build(&s));
+    // The room's diagonal is sqrt(4^2 + 4^2 + 3^2) = 6.40 m: 0.16 m elements, where
+    // the whole scene's bounds give 283 / 40 = 7.1 m. (The lit region is the 5th to
+    // 95th percentile of the light's hits, a little inside the room.)
+    assert!(size > 0.10 && size <= 6.41 / 40.0, "{size}");
+    // With a floor of the room's size instead, its bounds give the same size.
+    let mut alone = s.clone();
+    alone.shapes[0].mesh = quad([v(-2., 0., -2.), v(2., 0., -2.), v(2., 4., -2.), v(-2., 4., -2.)]);
+    let alone_size = default_mesh_size(&alone, &Bvh::build(&alone));
+    assert!(
+        (alone_size - (4f32 * 4. + 4. * 4. + 3. * 3.).sqrt() / 40.0).abs() < 1e-4,
+        "{alone_size}"
+    );
+}
+
+#[test]
+fn a_surface_too_large_for_one_patch_is_cut_into_patches_found_by_position() {
+    let s = room_on_a_ground_plane();
+    let bvh = Bvh::build(&s);
+    let size = default_mesh_size(&s, &bvh);
+    let m = RadiosityMesh::build(&s, size);
+    let first = m.shape_first_patch[0] as usize;
+    let last = m.shape_first_patch[1] as usize;
+    let cut = m.splits.get(&(first as u32)).expect("the ground plane is cut");
+    assert_eq!(last - first, cut.piece.iter().filter(|&&p| p != u32::MAX).count());
+    // The pieces tile the plane: their areas sum to 200 x 200 m.
+    let area: f32 = m.patches[first..last].iter().map(|p| p.area).sum();
+    assert!((area - 40_000.0).abs() < 1.0, "{area}");
+    // No piece has more than 32 elements a side (at most 32 x 32 elements), and the
+    // pieces under the room keep the mesh size while those far off are coarser.
+    let max_elements = m.patches[first..last]
+        .iter()
+        .map(|p| p.element_count)
+        .max()
+        .unwrap();
+    assert!(
+        max_elements <= (SPLIT_SIDE + 1) * (SPLIT_SIDE + 1),
+        "{max_elements}"
+    );
+    let elements: u32 = m.patches[first..last].iter().map(|p| p.element_count).sum();
+    assert!(
+        (elements as f32) < 0.05 * 40_000.0 / (size * size),
+        "{elements} elements where a uniform mesh has {}",
+        40_000.0 / (size * size)
+    );
+    // A ray down onto the floor inside the room, and one far out, each find the piece
+    // whose vertices lie about the hit point.
+    for (x, y) in [(0.5, -0.3), (-1.7, 1.8), (60.0, -75.0)] {
+        let hit = bvh.intersect(&Ray::new(v(x, y, 0.5), v(0., 0., -1.))).unwrap();
+        assert_eq!(hit.shape, 0);
+        let p = m.patch_of(&s, &hit) as usize;
+        assert!((first..last).contains(&p));
+        let patch = &m.patches[p];
+        let verts =
+            &m.vertices[patch.first_vertex as usize..(patch.first_vertex + patch.vertex_count) as usize];
+        let (lo, hi) = verts
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), q| {
+                (lo.min(q.p), hi.max(q.p))
+            });
+        let at = v(x, y, -2.);
+        assert!(
+            at.cmpge(lo - Vec3::splat(1e-3)).all() && at.cmple(hi + Vec3::splat(1e-3)).all(),
+            "({x}, {y}) outside its piece {lo} .. {hi}"
+        );
+        // Interpolation there uses that piece's vertices only.
+        let w = m.locate(&s, &hit, at, true);
+        for (k, &vtx) in w.vertices.iter().enumerate() {
+            if w.weights[k] > 0.0 {
+                assert_eq!(m.vertices[vtx as usize].patch as usize, p);
+            }
+        }
+    }
 }

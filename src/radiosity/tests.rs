@@ -197,13 +197,19 @@ fn lamp_past_a_screen(screen: [Vec3; 4], lamp: [Vec3; 4], mesh_size: f32) -> Vec
         &[(2, Vec3::ONE)],
     );
     let sol = solve(&s, &Bvh::build(&s), &settings(mesh_size, 64, 0), &Silent).unwrap();
-    let e = &sol.lists[0][0];
-    let first = sol.mesh.patches[0].first_vertex as usize;
-    e.occluded
-        .iter()
-        .zip(&e.unoccluded)
-        .enumerate()
-        .map(|(k, (o, u))| (sol.mesh.vertices[first + k].q, o.x / u.x))
+    // The floor's patches (a floor of more than 64 elements a side is cut into several).
+    let floor_patches = (0..sol.mesh.front_patches as usize).filter(|&p| sol.mesh.patches[p].shape == 0);
+    floor_patches
+        .flat_map(|p| {
+            let e = &sol.lists[p][0];
+            let first = sol.mesh.patches[p].first_vertex as usize;
+            let mesh = &sol.mesh;
+            e.occluded
+                .iter()
+                .zip(&e.unoccluded)
+                .enumerate()
+                .map(move |(k, (o, u))| (mesh.vertices[first + k].q, o.x / u.x))
+        })
         .collect()
 }
 
