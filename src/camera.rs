@@ -106,6 +106,7 @@ mod tests {
             near_clip: 0.01,
             far_clip: 1e4,
             spp: None,
+            filter: None,
         }
     }
 

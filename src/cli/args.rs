@@ -465,9 +465,10 @@ pub struct ImageArgs {
     /// direct and twopass].
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=4096))]
     pub(super) gather: Option<u32>,
-    /// Pixel reconstruction filter.
-    #[arg(long, value_enum, default_value_t = Filter::Gaussian)]
-    pub(super) filter: Filter,
+    /// Pixel reconstruction filter [default: the scene film's `rfilter`, else
+    /// gaussian, Mitsuba's default].
+    #[arg(long, value_enum)]
+    pub(super) filter: Option<Filter>,
 }
 
 /// `radtrace tables`.
@@ -624,7 +625,7 @@ impl RenderArgs {
             area_samples: image.area_samples,
             max_depth: image.max_depth,
             gather: image.gather(self.solve.quality, self.method),
-            filter: image.filter,
+            filter: image.filter.or(sensor.filter).unwrap_or_default(),
             sampler,
             refine,
         })

@@ -67,7 +67,9 @@ pub(super) fn cmd_tables(a: TablesArgs) -> Result<()> {
             // The paper's tables are of its method before the last step: a gather
             // only when asked for.
             gather: a.image.gather.unwrap_or(0),
-            filter: a.image.filter,
+            filter: (a.image.filter)
+                .or_else(|| a.views.first().and_then(|&v| l.scene.sensors.get(v)?.filter))
+                .unwrap_or_default(),
             max_level: refine.max_level,
             contrast: a.refine.contrast,
             select,

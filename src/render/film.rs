@@ -25,16 +25,7 @@ pub struct FilmSample {
     pub value: Vec3,
 }
 
-/// Pixel reconstruction filter.
-#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Filter {
-    /// Equal weights for the samples inside the pixel's square (the paper's).
-    Box,
-    /// Mitsuba's Gaussian: stddev 0.5 px, radius 2 px, shifted to reach 0 at the radius.
-    #[default]
-    Gaussian,
-}
+pub use crate::scene::Filter;
 
 impl Filter {
     /// The name used on the command line and in the statistics.

@@ -439,6 +439,17 @@ pub struct Shape {
     pub emitter: Option<u32>,
 }
 
+/// Pixel reconstruction filter (a film's `rfilter`; its weights are the render's).
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Filter {
+    /// Equal weights for the samples inside the pixel's square (the paper's).
+    Box,
+    /// Mitsuba's Gaussian: stddev 0.5 px, radius 2 px, shifted to reach 0 at the radius.
+    #[default]
+    Gaussian,
+}
+
 /// Which axis `fov` spans (Mitsuba's `fov_axis`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FovAxis {
@@ -473,6 +484,8 @@ pub struct Sensor {
     pub far_clip: f32,
     /// Samples per pixel from the scene's `sampler`, if it names one.
     pub spp: Option<u32>,
+    /// The film's `rfilter`, if it names one (Mitsuba's default is its Gaussian).
+    pub filter: Option<Filter>,
 }
 
 impl Sensor {

@@ -256,6 +256,7 @@ fn fingerprint_is_stable_and_sees_what_matters() {
         near_clip: 0.01,
         far_clip: 100.0,
         spp: None,
+        filter: None,
     });
     assert_eq!(scene_fingerprint(&same), fp);
 

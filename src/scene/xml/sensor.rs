@@ -7,7 +7,7 @@ use roxmltree::Node;
 use super::document::{tag, Loader, Src};
 use super::parse;
 use super::properties::{Child, Target, Val};
-use crate::scene::{FovAxis, Sensor};
+use crate::scene::{Filter, FovAxis, Sensor};
 use crate::Result;
 
 impl Loader {
@@ -119,7 +119,7 @@ impl Loader {
             }
         }
 
-        let (mut width, mut height, mut spp) = (768, 576, None);
+        let (mut width, mut height, mut spp, mut filter) = (768, 576, None, None);
         let (mut film_seen, mut sampler_seen) = (false, false);
         for ch in &obj.children {
             match ch {
@@ -128,7 +128,7 @@ impl Loader {
                         return Err(s.err(*n, "a sensor takes one <film>"));
                     }
                     film_seen = true;
-                    (width, height) = self.film(s, *n)?;
+                    (width, height, filter) = self.film(s, *n)?;
                 }
                 Child::Elem(n) if tag(*n) == "sampler" => {
                     if sampler_seen {
@@ -157,12 +157,13 @@ impl Loader {
             near_clip,
             far_clip,
             spp,
+            filter,
         });
         Ok(())
     }
 
-    /// The film's size; its other settings are Mitsuba's business.
-    fn film(&mut self, s: Src, c: Node) -> Result<(u32, u32)> {
+    /// The film's size and its `rfilter`; its other settings are Mitsuba's business.
+    fn film(&mut self, s: Src, c: Node) -> Result<(u32, u32, Option<Filter>)> {
         self.check_attrs(s, c, &["type", "id", "name"]);
         let ty = self.attr_req(s, c, "type")?;
         self.register(s, c, Target::Other("film"))?;
@@ -179,8 +180,46 @@ impl Loader {
         };
         let w = size("width", 768)?;
         let h = size("height", 576)?;
+        let mut filter = None;
+        for ch in &obj.children {
+            if let Child::Elem(n) = ch {
+                if tag(*n) == "rfilter" {
+                    filter = Some(self.rfilter(s, *n)?);
+                }
+            }
+        }
         obj.mark_all();
-        Ok((w, h))
+        Ok((w, h, filter))
+    }
+
+    /// A film's reconstruction filter: `box`, or `gaussian` (Mitsuba's, of standard
+    /// deviation 0.5 px); the others Mitsuba has (`tent`, `mitchell`, `catmullrom`,
+    /// `lanczos`) and other deviations are read as the Gaussian, with a warning.
+    fn rfilter(&mut self, s: Src, c: Node) -> Result<Filter> {
+        self.check_attrs(s, c, &["type", "id", "name"]);
+        let ty = self.attr_req(s, c, "type")?;
+        let obj = self.collect(s, c, format!("rfilter '{ty}'"))?;
+        let filter = match ty.as_str() {
+            "box" => Filter::Box,
+            "gaussian" => {
+                if let Some(d) = obj.float("stddev")? {
+                    if (d - 0.5).abs() > 1e-6 {
+                        self.warn(s, c, format!("rfilter 'gaussian' of stddev {d} read as 0.5"));
+                    }
+                }
+                Filter::Gaussian
+            }
+            other => {
+                self.warn(
+                    s,
+                    c,
+                    format!("rfilter '{other}' read as 'gaussian': radtrace has 'box' and 'gaussian'"),
+                );
+                Filter::Gaussian
+            }
+        };
+        obj.mark_all();
+        Ok(filter)
     }
 
     fn sampler(&mut self, s: Src, c: Node) -> Result<Option<u32>> {

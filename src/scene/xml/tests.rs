@@ -573,6 +573,11 @@ fn sensor_fov_film_sampler() {
     assert_eq!(s[1].fov_axis, FovAxis::Diagonal);
     assert_eq!((s[1].width, s[1].height, s[1].spp), (768, 576, None));
     assert_eq!((s[1].near_clip, s[1].far_clip), (0.01, 10000.0));
+    // The film's rfilter: named, or none (the render then takes Mitsuba's default).
+    assert_eq!(
+        (s[0].filter, s[1].filter),
+        (Some(crate::scene::Filter::Gaussian), None)
+    );
     assert_eq!(s[2].fov, 60.0);
     assert!(has_warning(&l, 13, "depth of field"));
     // No warning for the film's own keys or the rfilter.
@@ -580,6 +585,48 @@ fn sensor_fov_film_sampler() {
         .warnings
         .iter()
         .any(|w| w.contains("pixel_format") || w.contains("rfilter")));
+}
+
+/// A film's `rfilter` is read: a box stays a box (Mitsuba's 0.6 scenes often ask for
+/// one: the wooden staircase, the classroom), the Gaussian of other deviations and the
+/// filters radtrace lacks are read as its Gaussian with a warning naming the line.
+#[test]
+fn a_films_rfilter_is_read() {
+    let film = |inner: &str| {
+        format!(
+            r#"<scene version="3.0.0"><sensor type="perspective">
+<film type="hdrfilm">{inner}</film></sensor></scene>"#
+        )
+    };
+    let f = |inner: &str| {
+        let l = load_raw(&film(inner), &[]).unwrap();
+        (l.scene.sensors[0].filter, l.warnings.clone())
+    };
+    let (box_, w) = f(r#"<rfilter type="box"/>"#);
+    assert_eq!(box_, Some(crate::scene::Filter::Box));
+    assert!(!w.iter().any(|w| w.contains("rfilter")), "{w:?}");
+    let (g, w) = f(r#"<rfilter type="gaussian"><float name="stddev" value="0.5"/></rfilter>"#);
+    assert_eq!(g, Some(crate::scene::Filter::Gaussian));
+    assert!(!w.iter().any(|w| w.contains("rfilter")), "{w:?}");
+    for (inner, says) in [
+        (r#"<rfilter type="tent"/>"#, "rfilter 'tent' read as 'gaussian'"),
+        (
+            r#"<rfilter type="gaussian"><float name="stddev" value="0.25"/></rfilter>"#,
+            "stddev 0.25 read as 0.5",
+        ),
+    ] {
+        let (g, w) = f(inner);
+        assert_eq!(g, Some(crate::scene::Filter::Gaussian));
+        assert!(w.iter().any(|w| w.contains(":2:") && w.contains(says)), "{w:?}");
+    }
+    // A Mitsuba 0.6 file's box filter, as the staircase's.
+    let l = load_raw(
+        r#"<scene version="0.6.0"><sensor type="perspective"><film type="hdrfilm">
+<float name="gamma" value="2.2"/><rfilter type="box"/></film></sensor></scene>"#,
+        &[],
+    )
+    .unwrap();
+    assert_eq!(l.scene.sensors[0].filter, Some(crate::scene::Filter::Box));
 }
 
 #[test]
