@@ -52,11 +52,19 @@ impl RadiosityMesh {
     /// first polygon; the most covered first while the vertex budget lasts.
     /// Deterministic: fixed sample points, no seed.
     pub(super) fn holding(&self, scene: &Scene, accel: &dyn Accel) -> HashSet<(u32, u32)> {
+        // The pieces of a surface cut into several share its first polygon: they are
+        // never refined (the whole surface would be).
+        let cut: HashSet<(u32, u32)> = self
+            .splits
+            .keys()
+            .map(|&p| (self.patches[p as usize].shape, self.patches[p as usize].local))
+            .collect();
         let mut near: Vec<(u32, f32)> = (0..self.front_patches)
             .into_par_iter()
             .filter(|&p| {
                 let mp = &self.patches[p as usize];
-                (MIN_ELEMENTS..=MAX_ELEMENTS).contains(&mp.element_count)
+                !cut.contains(&(mp.shape, mp.local))
+                    && (MIN_ELEMENTS..=MAX_ELEMENTS).contains(&mp.element_count)
                     && mp
                         .grids
                         .iter()

@@ -584,6 +584,9 @@ impl RadiosityMesh {
             // Per cluster, the offset of its (first) patch from the shape's first.
             let mut cluster_patch = Vec::with_capacity(groups.members.len());
             for members in &groups.members {
+                // (A surface cut into pieces keeps the mesh size: `fine` names the
+                // cluster by its first polygon, which all its pieces share.)
+                let base = size;
                 let size = if fine.contains(&(si as u32, members[0])) {
                     0.5 * size
                 } else {
@@ -610,13 +613,13 @@ impl RadiosityMesh {
                 let large = members.len() > 1
                     || flat
                         && domains.iter().any(|d| {
-                            let (n, m) = grid_size(d, size);
+                            let (n, m) = grid_size(d, base);
                             n.max(m) > SPLIT_ABOVE
                         });
-                let cut = if large && size.is_finite() {
+                let cut = if large && base.is_finite() {
                     lattice::cut(
                         &cluster_triangles(&shape.mesh, members),
-                        size,
+                        base,
                         SPLIT_ABOVE,
                         SPLIT_SIDE,
                     )
@@ -636,8 +639,8 @@ impl RadiosityMesh {
                                 } else {
                                     0.0
                                 };
-                                let t = (SPLIT_SIDE as f32 * size).max(0.25 * (rest.1 - rest.0).length());
-                                let s = size * (d / t).max(1.0).powi(2);
+                                let t = (SPLIT_SIDE as f32 * base).max(0.25 * (rest.1 - rest.0).length());
+                                let s = base * (d / t).max(1.0).powi(2);
                                 (tris, s)
                             })
                             .collect();
