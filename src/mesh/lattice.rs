@@ -696,7 +696,9 @@ pub fn cut(surface: &[[Vec3; 3]], cell: f32, above: u32, side: u32) -> Option<(V
     if n <= above as f32 && m <= above as f32 {
         return None;
     }
-    let (kx, ky) = ((n / side as f32).ceil() as u32, (m / side as f32).ceil() as u32);
+    // At most 256 pieces a side (each then larger than `side` cells).
+    let pieces = |c: f32| ((c / side as f32).ceil() as u32).clamp(1, 256);
+    let (kx, ky) = (pieces(n), pieces(m));
     let step = Vec2::new(span.x / kx as f32, span.y / ky as f32).max(Vec2::splat(1e-30));
     let mut parts: Vec<Vec<[Vec3; 3]>> = vec![Vec::new(); (kx * ky) as usize];
     for t in surface {

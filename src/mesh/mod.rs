@@ -616,13 +616,21 @@ impl RadiosityMesh {
                             let (n, m) = grid_size(d, base);
                             n.max(m) > SPLIT_ABOVE
                         });
-                let cut = if large && base.is_finite() {
-                    lattice::cut(
-                        &cluster_triangles(&shape.mesh, members),
-                        base,
-                        SPLIT_ABOVE,
-                        SPLIT_SIDE,
-                    )
+                // (A lone polygon keeps at most 256 elements a side, as its own grid
+                // does: a tiny `--mesh-size` must not make a ground plane's mesh unbounded.)
+                let tris = if large && base.is_finite() {
+                    cluster_triangles(&shape.mesh, members)
+                } else {
+                    Vec::new()
+                };
+                let cell = if members.len() == 1 {
+                    let (lo, hi) = tri_bounds(&tris);
+                    base.max((hi - lo).max_element() / 256.0)
+                } else {
+                    base
+                };
+                let cut = if !tris.is_empty() {
+                    lattice::cut(&tris, cell, SPLIT_ABOVE, SPLIT_SIDE)
                 } else {
                     None
                 };
@@ -639,8 +647,8 @@ impl RadiosityMesh {
                                 } else {
                                     0.0
                                 };
-                                let t = (SPLIT_SIDE as f32 * base).max(0.25 * (rest.1 - rest.0).length());
-                                let s = base * (d / t).max(1.0).powi(2);
+                                let t = (SPLIT_SIDE as f32 * cell).max(0.25 * (rest.1 - rest.0).length());
+                                let s = cell * (d / t).max(1.0).powi(2);
                                 (tris, s)
                             })
                             .collect();
