@@ -206,6 +206,20 @@ pub fn offset_from(p: Vec3, n: Vec3, towards: Vec3) -> Vec3 {
     p + side * ray_epsilon(p)
 }
 
+/// The ray of light leaving a source as `e`: from its origin, moved off an area
+/// light's surface ([`offset_from`]) towards its direction.
+pub fn emission_ray(e: &crate::emitters::Emission) -> Ray {
+    Ray {
+        origin: match e.normal {
+            Some(n) => offset_from(e.origin, n, e.dir),
+            None => e.origin,
+        },
+        dir: e.dir,
+        tmin: 0.0,
+        tmax: f32::INFINITY,
+    }
+}
+
 /// The one shadow-ray constructor of both passes (pbrt-v4's `SpawnRayTo`): from `p`,
 /// on a surface with normal `n`, to the light point `q`, which lies on a surface with
 /// normal `q_normal` (an area light, a radiant patch) or in space (`None`: a point or

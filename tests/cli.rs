@@ -55,6 +55,24 @@ fn write_scene(dir: &Path, text: &str) -> PathBuf {
     p
 }
 
+/// Renders `scene` quietly into `dir` with `args` and returns its `--stats` JSON.
+fn render_stats(scene: &Path, dir: &Path, args: &[&str]) -> serde_json::Value {
+    let (out, stats) = (dir.join("r.exr"), dir.join("r.json"));
+    let mut all = vec![
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--stats",
+        stats.to_str().unwrap(),
+        "-q",
+    ];
+    all.extend_from_slice(args);
+    let o = radtrace(&all);
+    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap()
+}
+
 #[test]
 fn point_light_on_a_plane_renders_the_closed_form_radiance() {
     let d = tmp();
@@ -203,23 +221,7 @@ fn the_films_rfilter_is_the_default_filter() {
     let boxed = PLANE_SCENE.replace("</film>", "<rfilter type=\"box\"/></film>");
     let scene = write_scene(d.path(), &boxed);
     let filter_of = |extra: &[&str]| {
-        let (out, stats) = (d.path().join("a.exr"), d.path().join("stats.json"));
-        let mut args = vec![
-            "render",
-            scene.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--method",
-            "direct",
-            "--stats",
-            stats.to_str().unwrap(),
-            "-q",
-        ];
-        args.extend_from_slice(extra);
-        let o = radtrace(&args);
-        assert!(o.status.success(), "{}", stderr(&o));
-        let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
-        let text = j.to_string();
+        let text = render_stats(&scene, d.path(), &[&["--method", "direct"], extra].concat()).to_string();
         ["box", "gaussian"]
             .into_iter()
             .find(|f| text.contains(&format!("\"filter\":\"{f}\"")))
@@ -831,26 +833,8 @@ fn the_quality_dial_sets_both_passes_and_a_flag_wins() {
     let d = tmp();
     let scene = write_scene(d.path(), ROOMLET);
     let run = |extra: &[&str]| -> serde_json::Value {
-        let (out, stats) = (d.path().join("q.exr"), d.path().join("q.json"));
-        let mut args = vec![
-            "render",
-            scene.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--mesh-size",
-            "0.5",
-            "--width",
-            "24",
-            "--height",
-            "24",
-            "--stats",
-            stats.to_str().unwrap(),
-            "-q",
-        ];
-        args.extend(extra);
-        let o = radtrace(&args);
-        assert!(o.status.success(), "{extra:?}: {}", stderr(&o));
-        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap()
+        let size = ["--mesh-size", "0.5", "--width", "24", "--height", "24"];
+        render_stats(&scene, d.path(), &[&size[..], extra].concat())
     };
     // (shoot samples, photons per vertex, max level, gather rays) of each level, and
     // the solve tolerance.

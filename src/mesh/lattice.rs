@@ -676,9 +676,16 @@ fn dominant_axis(surface: &[[Vec3; 3]]) -> u8 {
 
 /// Cuts a surface (triangles wound to face its front) whose lattice of side `cell`
 /// would have more than `above` cells along a side into rectangles of at most `side`
-/// cells a side: the triangles clipped to each rectangle that holds any, and the
-/// cut. `None` when the surface fits in one patch.
-pub fn cut(surface: &[[Vec3; 3]], cell: f32, above: u32, side: u32) -> Option<(Vec<Vec<[Vec3; 3]>>, Cut)> {
+/// cells a side (at most `most` rectangles a side, each then larger): the triangles
+/// clipped to each rectangle that holds any, and the cut. `None` when the surface
+/// fits in one patch.
+pub fn cut(
+    surface: &[[Vec3; 3]],
+    cell: f32,
+    above: u32,
+    side: u32,
+    most: u32,
+) -> Option<(Vec<Vec<[Vec3; 3]>>, Cut)> {
     let axis = dominant_axis(surface);
     let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
     for t in surface {
@@ -696,8 +703,7 @@ pub fn cut(surface: &[[Vec3; 3]], cell: f32, above: u32, side: u32) -> Option<(V
     if n <= above as f32 && m <= above as f32 {
         return None;
     }
-    // At most 256 pieces a side (each then larger than `side` cells).
-    let pieces = |c: f32| ((c / side as f32).ceil() as u32).clamp(1, 256);
+    let pieces = |c: f32| ((c / side as f32).ceil() as u32).clamp(1, most);
     let (kx, ky) = (pieces(n), pieces(m));
     let step = Vec2::new(span.x / kx as f32, span.y / ky as f32).max(Vec2::splat(1e-30));
     let mut parts: Vec<Vec<[Vec3; 3]>> = vec![Vec::new(); (kx * ky) as usize];

@@ -297,12 +297,16 @@ fn cluster_triangles(mesh: &crate::geometry::TriMesh, members: &[u32]) -> Vec<[V
 /// makes them shorter than a quarter of the mesh size).
 const MAX_BEND: f32 = 0.2618;
 
-/// Subdivisions for a length: at least 1, at most 256.
+/// Most elements along a side of a lone polygon's own grid, and most pieces along a
+/// side of a cut surface: a tiny `--mesh-size` must not make either unbounded.
+pub const MAX_DIVISIONS: u32 = 256;
+
+/// Subdivisions for a length: at least 1, at most [`MAX_DIVISIONS`].
 fn divisions(len: f32, size: f32) -> u32 {
     if !(len > 0.0) || !(size > 0.0) {
         return 1;
     }
-    ((len / size).ceil() as u32).clamp(1, 256)
+    ((len / size).ceil() as u32).clamp(1, MAX_DIVISIONS)
 }
 
 impl Grid {
@@ -616,21 +620,16 @@ impl RadiosityMesh {
                             let (n, m) = grid_size(d, base);
                             n.max(m) > SPLIT_ABOVE
                         });
-                // (A lone polygon keeps at most 256 elements a side, as its own grid
-                // does: a tiny `--mesh-size` must not make a ground plane's mesh unbounded.)
+                // (At most MAX_DIVISIONS pieces a side: a tiny `--mesh-size` must not
+                // make the cut itself unbounded. Far pieces are coarse, so the pieces at
+                // the mesh size cover about the rest of the scene, as its own mesh does.)
                 let tris = if large && base.is_finite() {
                     cluster_triangles(&shape.mesh, members)
                 } else {
                     Vec::new()
                 };
-                let cell = if members.len() == 1 {
-                    let (lo, hi) = tri_bounds(&tris);
-                    base.max((hi - lo).max_element() / 256.0)
-                } else {
-                    base
-                };
                 let cut = if !tris.is_empty() {
-                    lattice::cut(&tris, cell, SPLIT_ABOVE, SPLIT_SIDE)
+                    lattice::cut(&tris, base, SPLIT_ABOVE, SPLIT_SIDE, MAX_DIVISIONS)
                 } else {
                     None
                 };
@@ -647,8 +646,8 @@ impl RadiosityMesh {
                                 } else {
                                     0.0
                                 };
-                                let t = (SPLIT_SIDE as f32 * cell).max(0.25 * (rest.1 - rest.0).length());
-                                let s = cell * (d / t).max(1.0).powi(2);
+                                let t = (SPLIT_SIDE as f32 * base).max(0.25 * (rest.1 - rest.0).length());
+                                let s = base * (d / t).max(1.0).powi(2);
                                 (tris, s)
                             })
                             .collect();
@@ -840,12 +839,16 @@ impl RadiosityMesh {
     }
 
     /// The (front) patch a ray hit: that of the hit triangle's polygon, or, where the
-    /// polygon was cut into several ([`Split`]), the piece holding the hit.
+    /// polygon was cut into several ([`SPLIT_ABOVE`]), the piece holding the hit.
     pub fn patch_of(&self, scene: &Scene, hit: &Hit) -> u32 {
         let mesh = &scene.shapes[hit.shape as usize].mesh;
         let scene_patch = mesh.tri_patch[hit.tri as usize];
         let p = self.shape_first_patch[hit.shape as usize]
             + self.patch_map[hit.shape as usize][scene_patch as usize];
+        // (Every hit of every pass asks: most scenes cut nothing and skip the lookup.)
+        if self.splits.is_empty() {
+            return p;
+        }
         match self.splits.get(&p) {
             Some(cut) => {
                 let [a, b, c] = mesh.triangle(hit.tri as usize);

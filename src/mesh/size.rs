@@ -4,6 +4,7 @@
 use glam::{Vec2, Vec3};
 
 use crate::accel::Accel;
+use crate::interaction::{emission_ray, SurfacePoint};
 use crate::scene::Scene;
 
 /// The default element size: 1/40 of the bounding-box diagonal of the surfaces that
@@ -77,10 +78,12 @@ pub fn lit_diagonal(scene: &Scene, accel: &dyn Accel) -> Option<f32> {
     let mut hits: Vec<(Vec3, f32)> = Vec::new();
     for (l, light) in lights.iter().enumerate() {
         let count = (f64::from(LIT_RAYS) * power[l] / total).ceil() as u32;
+        // A fixed seed: the mesh must not depend on `--seed` (a solution file
+        // rebuilds it from its size alone, and the size from this).
         let seed = crate::sampling::shot_seed(0x11_7e, l as u64);
         for k in 0..count {
-            let [a, b, _] = crate::sampling::uniform3(seed, k);
-            let [c, d, _] = crate::sampling::uniform3(seed ^ 0x5bd1_e995, k);
+            let [a, b, c] = crate::sampling::uniform3(seed, 2 * k);
+            let [d, f, g] = crate::sampling::uniform3(seed, 2 * k + 1);
             // A uniform direction over the sphere (the light's own falloff weighs it).
             let z = 1.0 - 2.0 * c;
             let r = (1.0 - z * z).max(0.0).sqrt();
@@ -91,24 +94,19 @@ pub fn lit_diagonal(scene: &Scene, accel: &dyn Accel) -> Option<f32> {
                 continue;
             };
             let w = e.power.x + e.power.y + e.power.z;
-            let mut ray = crate::accel::Ray::new(e.origin, e.dir);
-            ray.tmin = 1e-4 * (1.0 + e.origin.abs().max_element());
+            let ray = emission_ray(&e);
             let Some(hit) = accel.intersect(&ray).filter(|_| w > 0.0) else {
                 continue;
             };
-            let x = ray.at(hit.t);
-            hits.push((x, w));
+            let sp = SurfacePoint::new(scene, &ray, &hit);
+            hits.push((sp.p, w));
             // And where that light goes next (a diffuse bounce): a narrow spot on a
             // mirror ball lights the room around it.
-            let [t0, t1, t2] = scene.shapes[hit.shape as usize].mesh.triangle(hit.tri as usize);
-            let mut n = (t1 - t0).cross(t2 - t0).normalize_or_zero();
-            if n.dot(e.dir) > 0.0 {
-                n = -n;
-            }
-            let [f, g, _] = crate::sampling::uniform3(seed ^ 0x27d4_eb2f, k);
-            let bounce = crate::sampling::cosine_direction(n, Vec2::new(f, g));
-            let mut next = crate::accel::Ray::new(x, bounce);
-            next.tmin = 1e-4 * (1.0 + x.abs().max_element());
+            let n = if sp.ng.dot(e.dir) > 0.0 { -sp.ng } else { sp.ng };
+            let next = sp.spawn(
+                crate::sampling::cosine_direction(n, Vec2::new(f, g)),
+                f32::INFINITY,
+            );
             if let Some(h) = accel.intersect(&next) {
                 hits.push((next.at(h.t), w));
             }

@@ -1008,6 +1008,18 @@ fn a_surface_too_large_for_one_patch_is_cut_into_patches_found_by_position() {
             at.cmpge(lo - Vec3::splat(1e-3)).all() && at.cmple(hi + Vec3::splat(1e-3)).all(),
             "({x}, {y}) outside its piece {lo} .. {hi}"
         );
+        // Inside the room the piece keeps the mesh size (a cap on the whole plane's
+        // divisions once made it 200 / 256 = 0.78 m: blotchy, and its room 7 % dark).
+        if x.abs() < 2.0 {
+            let Domain::Lattice(l) = &patch.grids[0].domain else {
+                panic!("a cut piece is meshed by a lattice")
+            };
+            assert!(
+                (l.cell - size).abs() < 1e-6,
+                "cell {} at ({x}, {y}), mesh size {size}",
+                l.cell
+            );
+        }
         // Interpolation there uses that piece's vertices only.
         let w = m.locate(&s, &hit, at, true);
         for (k, &vtx) in w.vertices.iter().enumerate() {

@@ -538,19 +538,12 @@ const AIM_PILOT_SEED: u32 = 0x41_494d;
 
 /// Whether light leaving as `e` meets a surface that reflects like a mirror first.
 fn meets_a_mirror(scene: &Scene, accel: &dyn Accel, e: &Emission) -> bool {
-    let ray = Ray {
-        origin: match e.normal {
-            Some(n) => offset_from(e.origin, n, e.dir),
-            None => e.origin,
-        },
-        dir: e.dir,
-        tmin: 0.0,
-        tmax: f32::INFINITY,
-    };
-    accel.intersect(&ray).is_some_and(|h| {
-        let shape = &scene.shapes[h.shape as usize];
-        scene.bsdfs[shape.bsdf as usize].kind.has_mirror()
-    })
+    accel
+        .intersect(&crate::interaction::emission_ray(e))
+        .is_some_and(|h| {
+            let shape = &scene.shapes[h.shape as usize];
+            scene.bsdfs[shape.bsdf as usize].kind.has_mirror()
+        })
 }
 
 /// A cone of directions: its unit axis and solid angle (see [`sphere_cone`]).
