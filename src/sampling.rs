@@ -34,6 +34,9 @@ pub enum Stream {
     Piece(u32),
     /// The directions of a final gather at a point of the image (pass 2).
     Gather,
+    /// The points where the mesh reads a textured material's albedo on triangle `t`
+    /// (of a shape's stream).
+    Texel(u32),
 }
 
 impl Stream {
@@ -49,6 +52,7 @@ impl Stream {
             Stream::Cells(k) => k.wrapping_mul(0x1656_67b1) ^ 0x9e37_79b9,
             Stream::Piece(p) => p.wrapping_mul(0x27d4_eb2f) ^ 0x1656_67b1,
             Stream::Gather => 0x7feb_352d,
+            Stream::Texel(t) => t.wrapping_mul(0x6a09_e667) ^ 0xbb67_ae85,
         }
     }
 }

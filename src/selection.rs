@@ -577,13 +577,7 @@ pub fn judge(j: &Judge, p: u32, entry: &ListEntry, tris: &Subtense, points: &Fal
     if c.radiance && c.reflectivity && c.solid_angle && c.view && !c.gradient && !bends {
         if let SourceId::Light(l) = entry.source {
             let points = points.0.get_or_init(|| falloff_points(j, p));
-            c.falloff_error = falloff_error(
-                points,
-                entry,
-                &j.lights[l as usize],
-                mp.reflectance,
-                mp.first_vertex,
-            );
+            c.falloff_error = falloff_error(points, entry, &j.lights[l as usize], mp.first_vertex);
             c.gradient = c.falloff_error > FALLOFF_ERROR;
         }
     }
@@ -606,12 +600,14 @@ pub struct FalloffPoints(std::cell::OnceCell<Vec<FalloffPoint>>);
 
 /// The centre of a piece of a patch ([`crate::mesh::RadiosityMesh::pieces`], no bigger
 /// than an element), its normal on the patch's side, its interpolation weights over
-/// the patch's own vertices (summing to 1) and the interpolated total radiosity there.
+/// the patch's own vertices (summing to 1), the interpolated total radiosity there and
+/// the albedo the vertices' radiosity interpolates over.
 struct FalloffPoint {
     x: Vec3,
     n: Vec3,
     w: Interp,
     total: f32,
+    rho: Rgb,
 }
 
 fn falloff_points(j: &Judge, p: u32) -> Vec<FalloffPoint> {
@@ -635,7 +631,8 @@ fn falloff_points(j: &Judge, p: u32) -> Vec<FalloffPoint> {
         let total = mean(w.apply(j.total));
         if total > 0.0 {
             let n = if n.dot(front) < 0.0 { -n } else { n };
-            out.push(FalloffPoint { x, n, w, total });
+            let rho = mesh.albedo_at(&w);
+            out.push(FalloffPoint { x, n, w, total, rho });
         }
     }
     out
@@ -643,16 +640,10 @@ fn falloff_points(j: &Judge, p: u32) -> Vec<FalloffPoint> {
 
 /// The largest error of the elements' linear interpolation of `entry`'s unoccluded
 /// light at a patch's falloff `points` against the light's exact unoccluded
-/// irradiance there times the patch's reflectance `rho`, as a share of the total
+/// irradiance there times the albedo there, as a share of the total
 /// radiosity at the point. 0 for a light with no closed form (an exact sphere, a
 /// finely tessellated emitter). `first` is the patch's first vertex.
-fn falloff_error(
-    points: &[FalloffPoint],
-    entry: &ListEntry,
-    light: &SampledLight,
-    rho: Rgb,
-    first: u32,
-) -> f32 {
+fn falloff_error(points: &[FalloffPoint], entry: &ListEntry, light: &SampledLight, first: u32) -> f32 {
     let mut worst = 0.0f32;
     for pt in points {
         let Some(exact) = unoccluded_irradiance(light, pt.x, pt.n) else {
@@ -662,7 +653,7 @@ fn falloff_error(
             .filter(|&k| pt.w.weights[k] > 0.0)
             .map(|k| entry.unoccluded[(pt.w.vertices[k] - first) as usize] * pt.w.weights[k])
             .sum();
-        worst = worst.max((mean(exact * rho) - mean(stored)).abs() / pt.total);
+        worst = worst.max((mean(exact * pt.rho) - mean(stored)).abs() / pt.total);
     }
     worst
 }

@@ -53,6 +53,7 @@ impl RadiosityMesh {
             mesh = Self::build_refined(scene, mesh_size, &fine);
         }
         mesh.cover(scene, accel);
+        mesh.albedo = mesh.vertex_albedo(scene);
         mesh
     }
 

@@ -157,6 +157,10 @@ pub struct RadiosityMesh {
     /// Surfaces too large for one patch, cut into several (see [`SPLIT_ABOVE`]), by
     /// the index of their first patch.
     pub splits: std::collections::HashMap<u32, lattice::Cut>,
+    /// Per vertex, the diffuse albedo its radiosity is made with: the mean of its
+    /// material's texture over the surface around it ([`Self::albedo`]). Empty where
+    /// no material is textured: each vertex takes its patch's reflectance.
+    pub albedo: Vec<Rgb>,
 }
 
 /// A surface (one polygon, or a cluster of them) with more than [`SPLIT_ABOVE`]
@@ -533,6 +537,7 @@ impl RadiosityMesh {
             front_patches: 0,
             refined: fine.len() as u32,
             splits: std::collections::HashMap::new(),
+            albedo: Vec::new(),
         };
         let emitting: std::collections::HashSet<u32> = scene
             .lights

@@ -820,6 +820,72 @@ fn a_textured_patch_takes_its_texture_mean_over_its_own_uv() {
     assert_eq!(of(1), vec![Vec3::splat(0.4)]);
 }
 
+/// A floor 40 x 20 m, too large for one patch (cut into pieces), of a two-sided
+/// material whose texture is dark on its left half (x < 20) and light on its right:
+/// every vertex more than an element from the seam takes its half's texel exactly
+/// (the texture's mean about it, not its patch's), the seam's lie between, and each
+/// back twin's vertex takes its front's.
+#[test]
+fn each_vertex_takes_its_textures_mean_about_it() {
+    use crate::scene::texture::TexFilter;
+    use crate::scene::{TexField, TexSlot, Texture};
+    let (dark, light) = (Vec3::new(0.1, 0.2, 0.3), Vec3::new(0.9, 0.7, 0.5));
+    let mut floor = quad([v(0., 0., 0.), v(40., 0., 0.), v(40., 20., 0.), v(0., 20., 0.)]);
+    floor.uvs = vec![
+        Vec2::new(0.0, 0.0),
+        Vec2::new(1.0, 0.0),
+        Vec2::new(1.0, 1.0),
+        Vec2::new(0.0, 1.0),
+    ];
+    let mut s = scene(vec![(floor, (dark + light) * 0.5)], vec![], &[]);
+    let mut t = Texture::from_linear("halves", 2, 1, vec![dark.to_array(), light.to_array()]).unwrap();
+    t.filter = TexFilter::Nearest;
+    s.textures.push(t);
+    s.bsdfs[0].twosided = true;
+    s.bsdfs[0].textures.push(TexSlot {
+        path: Vec::new(),
+        field: TexField::Diffuse,
+        texture: 0,
+        factor: Vec3::ONE,
+    });
+    let size = 0.25;
+    let m = RadiosityMesh::build_covered(&s, size, &Bvh::build(&s));
+    assert!(!m.splits.is_empty(), "the floor is cut");
+    assert_eq!(m.albedo.len(), m.vertices.len());
+    let (mut left, mut right, mut seam) = (0, 0, 0);
+    for (i, vx) in m.vertices.iter().enumerate() {
+        let a = m.albedo(i as u32);
+        let off = vx.p.x - 20.0;
+        if off < -size * 1.01 {
+            assert!((a - dark).abs().max_element() < 1e-5, "{} {a}", vx.p);
+            left += 1;
+        } else if off > size * 1.01 {
+            assert!((a - light).abs().max_element() < 1e-5, "{} {a}", vx.p);
+            right += 1;
+        } else {
+            assert!(
+                a.cmpge(dark - 1e-5).all() && a.cmple(light + 1e-5).all(),
+                "{} {a}",
+                vx.p
+            );
+            seam += 1;
+        }
+    }
+    assert!(left > 1000 && right > 1000 && seam > 0, "{left} {right} {seam}");
+    // Twins: the same albedo at the same place.
+    let mut twins = 0;
+    for front in &m.patches[..m.front_patches as usize] {
+        let twin = &m.patches[front.twin.expect("two-sided") as usize];
+        for k in 0..front.vertex_count {
+            let (f, b) = (front.first_vertex + k, twin.first_vertex + k);
+            assert_eq!(m.vertices[f as usize].p, m.vertices[b as usize].p);
+            assert_eq!(m.albedo(f), m.albedo(b));
+            twins += 1;
+        }
+    }
+    assert_eq!(twins * 2, m.vertices.len());
+}
+
 /// A `mask` leaving 3/4 of a quad (an untextured quad reads its barycentrics as
 /// (u, v): u < 0.5, the open texel, on 3/4 of each triangle): the patch keeps its
 /// albedo, and sends light from 3/4 of its area (its vertices' areas and its shooting

@@ -824,7 +824,7 @@ impl Solver<'_> {
                 if !self.receives(source, v.patch as usize) {
                     return ((Vec3::ZERO, Vec3::ZERO, 0), links);
                 }
-                let rho = mesh.patches[v.patch as usize].reflectance;
+                let rho = mesh.albedo(i as u32);
                 let seed = derive(levels.seed, Stream::Receiver(i as u32));
                 let (o, u, r) = self.gather(
                     levels.for_vertex(v.q, max),
@@ -890,7 +890,7 @@ impl Solver<'_> {
                 if !self.receives(source, v.patch as usize) {
                     return (Vec3::ZERO, Vec3::ZERO, 0);
                 }
-                let rho = mesh.patches[v.patch as usize].reflectance;
+                let rho = mesh.albedo(i as u32);
                 let (o, u) = kept.receive(i, &radiosity, &quarters);
                 (o * rho, u * rho, 0)
             })

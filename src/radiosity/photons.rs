@@ -267,9 +267,13 @@ impl<'a> Tracer<'a> {
             }
             // Straight from a light or a shot, the deterministic shots hold the light
             // a diffuse surface takes: only the mirrors and glossy metals pass it on.
-            // Later, the patch's albedo (its texture's mean over it, as the shots use).
-            let q = (!first).then(|| self.mesh.patch_at(self.scene, &hit, sp.front));
-            let rho = q.map_or(Vec3::ZERO, |q| self.mesh.patches[q as usize].reflectance);
+            // Later, the albedo its vertices interpolate to there (their texture's
+            // mean, as the shots use).
+            let q = (!first)
+                .then(|| self.mesh.patch_at(self.scene, &hit, sp.front))
+                .filter(|&q| self.mesh.patches[q as usize].reflectance.max_element() > 0.0);
+            let w = q.map(|q| self.mesh.locate_on(self.scene, q, &hit, sp.p));
+            let rho = w.as_ref().map_or(Vec3::ZERO, |w| self.mesh.albedo_at(w));
             let cos = (-dir).dot(sp.ns).max(0.0);
             let spec = bsdf.kind.mirror(cos);
             let glossy = bsdf.kind.glossy();
@@ -277,8 +281,7 @@ impl<'a> Tracer<'a> {
             // at normal incidence, then weighs it by the lobe's sampling weight over
             // that (the lobe reflects at most that fraction, nearly, at any angle).
             let pg = glossy.map_or(0.0, |g| mean(g.scale * g.fresnel.f0()).clamp(0.0, 1.0));
-            if let Some(q) = q.filter(|_| rho.max_element() > 0.0) {
-                let w = self.mesh.locate_on(self.scene, q, &hit, sp.p);
+            if let (Some(q), Some(w)) = (q.filter(|_| rho.max_element() > 0.0), &w) {
                 let slot = source
                     .and_then(|s| self.lists[q as usize].iter().position(|e| e.source == s))
                     .map_or(u8::MAX, |k| k as u8);
@@ -291,7 +294,7 @@ impl<'a> Tracer<'a> {
                                 vertex: v,
                                 slot,
                                 source,
-                                value: rho * power * (w.weights[k] / area),
+                                value: self.mesh.albedo(v) * power * (w.weights[k] / area),
                                 caustic,
                             });
                         }

@@ -43,8 +43,8 @@ const MIXED: f32 = 0.5;
 const OFF: f32 = 0.02;
 
 /// The radiosity each vertex of patch `p` passes on from a point or spot `light`:
-/// `point` holds the reflected radiosity at every mesh vertex (reflectance `rho`, the patch's
-/// times irradiance); the result is the patch's vertices' weighted means over their
+/// `point` holds the reflected radiosity at every mesh vertex (its albedo,
+/// [`RadiosityMesh::albedo`], times irradiance); the result is the patch's vertices' weighted means over their
 /// surfaces, and the shadow rays cast. `None` where no piece of the patch is mixed
 /// (the point values stand).
 pub fn project(
@@ -57,7 +57,6 @@ pub fn project(
     seed: u32,
 ) -> Option<(Vec<Rgb>, u64)> {
     let patch = &mesh.patches[p as usize];
-    let rho = patch.reflectance;
     let opacity = if patch.opacity > 0.0 { patch.opacity } else { 1.0 };
     let first = patch.first_vertex as usize;
     let count = patch.vertex_count as usize;
@@ -69,13 +68,23 @@ pub fn project(
     let mut sum = vec![Vec3::ZERO; count];
     let mut weight = vec![0.0f32; count];
     let mut rays = 0u64;
-    // The reflected light at `x` on a surface with normal `n`, with its shadow ray.
+    // The irradiance at `x` on a surface with normal `n`, with its shadow ray; and a
+    // vertex's, its radiosity over the albedo it was made with (a texture's mean
+    // there, which varies over a textured patch).
     let mut at = |x: Vec3, n: Vec3| -> Rgb {
         let Some((e, q)) = light.point_light_at(x, n) else {
             return Vec3::ZERO;
         };
         rays += 1;
-        rho * e * transmittance(scene, accel, &shadow_ray(x, n, q, None))
+        e * transmittance(scene, accel, &shadow_ray(x, n, q, None))
+    };
+    let irradiance = |v: u32| -> Rgb {
+        let rho = mesh.albedo(v);
+        Vec3::select(
+            rho.cmpgt(Vec3::ZERO),
+            point[v as usize] / rho.max(Vec3::splat(f32::MIN_POSITIVE)),
+            Vec3::ZERO,
+        )
     };
     let exact = patch.surface().is_some_and(|s| s.traced_exactly());
     for (i, e) in mesh.pieces(p).iter().enumerate() {
@@ -87,7 +96,7 @@ pub fn project(
         for w in &ws {
             for k in 0..4 {
                 if w.weights[k] > 0.0 {
-                    let b = mean(point[w.vertices[k] as usize]);
+                    let b = mean(irradiance(w.vertices[k]));
                     lo = lo.min(b);
                     hi = hi.max(b);
                 }
@@ -125,7 +134,10 @@ pub fn project(
         };
         let mixed = if hi > 0.0 {
             lo < MIXED * hi || {
-                let guess = mean(ws[3].apply(point));
+                let w = &ws[3];
+                let guess: f32 = (0..4)
+                    .map(|k| w.weights[k] * mean(irradiance(w.vertices[k])))
+                    .sum();
                 (mean(at(centre)) - guess).abs() > OFF * hi
             }
         } else {
@@ -167,7 +179,8 @@ pub fn project(
             let rest = (share - weight[v]).max(0.0);
             let total = share.max(weight[v]);
             if total > 0.0 {
-                (point[first + v] * rest + sum[v]) / total
+                let i = first as u32 + v as u32;
+                (irradiance(i) * rest + sum[v]) / total * mesh.albedo(i)
             } else {
                 point[first + v]
             }

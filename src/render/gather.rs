@@ -519,7 +519,7 @@ impl Gather {
                 if bounce > 0 || !traced.contains(&q) {
                     let w = ctx.solution.mesh.locate_on(ctx.scene, q, &hit, y.p);
                     let radiosity = if bounce == 0 && hit.t < self.near {
-                        let rho = ctx.solution.mesh.patches[q as usize].reflectance;
+                        let rho = ctx.solution.mesh.albedo_at(&w);
                         let seed = derive(seed, Stream::Sample(k));
                         w.apply(&self.unlit) + rho * self.relight(ctx, &y, q, seed, counters)
                     } else {

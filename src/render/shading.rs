@@ -196,7 +196,7 @@ impl<'a> Tracer<'a> {
                     // vertices, plus the ray-traced sources of the patch.
                     let interp = mesh.locate(self.scene, &hit, sp.p, sp.front);
                     let patch = mesh.vertices[interp.vertices[0] as usize].patch;
-                    let textured = texture_ratio(bsdf, &kind, mesh.patches[patch as usize].reflectance);
+                    let textured = texture_ratio(bsdf, &kind, mesh.albedo_at(&interp));
                     let mut sum = match (&self.gather, depth) {
                         // The paper's last step: the gather replaces the general
                         // radiosity but its caustic part (see `gather` for the one
@@ -440,8 +440,7 @@ impl<'a> Tracer<'a> {
         let mut l = Vec3::ZERO;
         if kind.has_diffuse() {
             let interp = mesh.locate(self.scene, &hit, sp.p, sp.front);
-            let patch = mesh.vertices[interp.vertices[0] as usize].patch;
-            let textured = texture_ratio(bsdf, &kind, mesh.patches[patch as usize].reflectance);
+            let textured = texture_ratio(bsdf, &kind, mesh.albedo_at(&interp));
             l += interp.apply(total) * textured * std::f32::consts::FRAC_1_PI;
         }
         if depth < self.max_depth {
