@@ -197,7 +197,7 @@ fn round_trip_gives_the_same_solution() {
 
     // The header, field by field.
     assert_eq!(&bytes[..18], b"RADTRACE-SOLUTION\n");
-    assert_eq!(&bytes[18..22], &[6, 0, 0, 0]);
+    assert_eq!(&bytes[18..22], &[7, 0, 0, 0]);
     assert_eq!(
         u64::from_le_bytes(bytes[22..30].try_into().unwrap()),
         scene_fingerprint(scene)
@@ -398,12 +398,12 @@ fn another_version_is_refused_by_number() {
     bytes[18..22].copy_from_slice(&3u32.to_le_bytes());
     let msg = load_err(dir.path(), "v3.rts", &bytes);
     assert!(
-        msg.ends_with("made by another version of radtrace (format 3, this one reads 6)"),
+        msg.ends_with("made by another version of radtrace (format 3, this one reads 7)"),
         "{msg}"
     );
     // Even with nothing after the version field.
-    let msg = load_err(dir.path(), "v7.rts", &[&MAGIC[..], &7u32.to_le_bytes()].concat());
-    assert!(msg.contains("(format 7, this one reads 6)"), "{msg}");
+    let msg = load_err(dir.path(), "v8.rts", &[&MAGIC[..], &8u32.to_le_bytes()].concat());
+    assert!(msg.contains("(format 8, this one reads 7)"), "{msg}");
 }
 
 #[test]
