@@ -194,6 +194,8 @@ impl Fingerprint {
                 specular_reflectance,
                 specular_transmittance,
                 thin,
+                // (Pass 1 lets light through rough glass as through smooth.)
+                rough: _,
             } => {
                 self.u8(6);
                 self.f32(*eta);

@@ -951,6 +951,7 @@ fn a_thin_pane_dims_the_floor_behind_it_by_its_transmittance() {
         specular_reflectance: Vec3::ONE,
         specular_transmittance: Vec3::ONE,
         thin: true,
+        rough: None,
     };
     let floor = BsdfKind::Diffuse {
         reflectance: Vec3::splat(rho),
@@ -1013,6 +1014,7 @@ fn a_box_split_by_a_thin_pane_absorbs_all_the_light() {
             specular_reflectance: Vec3::ONE,
             specular_transmittance: Vec3::ONE,
             thin: true,
+            rough: None,
         },
         twosided: true,
         textures: Vec::new(),

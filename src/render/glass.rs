@@ -1,14 +1,16 @@
 //! Rays through glass at render time: a hit on `dielectric` or `thindielectric`
-//! continues as its mirror reflection and its transmission ([`BsdfKind::split`]).
+//! continues as its mirror reflection and its transmission ([`BsdfKind::split`]);
+//! on `roughdielectric`, as those about one microfacet normal drawn at the hit
+//! ([`BsdfKind::facet`]).
 //! Near the eye both are followed; deeper, one of them, drawn by its weight, so
 //! that a stack of panes or a glass object costs rays linear in its depth.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use crate::accel::Ray;
 use crate::bsdf::glass::Split;
 use crate::interaction::{reflect, SurfacePoint};
-use crate::sampling::{derive, uniform2, Stream};
+use crate::sampling::{derive, uniform2, uniform3, Stream};
 use crate::scene::{mean, BsdfKind, Rgb};
 
 /// Glass hits at fewer than this many bounces from the eye follow both rays.
@@ -20,17 +22,20 @@ pub const GLASS_SPLIT_DEPTH: u32 = 2;
 pub fn rays(kind: &BsdfKind, sp: &SurfacePoint, dir: Vec3, depth: u32, seed: u32) -> Vec<(Ray, Rgb, u32)> {
     // `sp.ns` faces the arriving ray; the glass's sides are told by `sp.front`.
     let outward = if sp.front { sp.ns } else { -sp.ns };
-    let Some(Split {
+    // Rough glass: both rays leave about one microfacet normal, drawn here.
+    let [u, v, _] = uniform3(derive(seed, Stream::Transmission), 1);
+    let Some(facet) = kind.facet(-dir, outward, Vec2::new(u, v)) else {
+        return Vec::new();
+    };
+    let Split {
         reflect: r,
         transmit: t,
         dir: t_dir,
         ..
-    }) = kind.split(-dir, outward)
-    else {
-        return Vec::new();
-    };
+    } = facet.split;
     let mut out = Vec::with_capacity(2);
-    let r_dir = reflect(dir, sp.ns).normalize();
+    let r_dir = reflect(dir, facet.m).normalize();
+    let (r, t) = (r * facet.weight(-dir, r_dir), t * facet.weight(-dir, t_dir));
     let reflected = (r.max_element() > 0.0 && r_dir.dot(sp.ng) > 0.0)
         .then(|| (sp.spawn(r_dir, f32::INFINITY), derive(seed, Stream::Reflection)));
     let transmitted = (t.max_element() > 0.0 && t_dir.dot(sp.ng) < 0.0)

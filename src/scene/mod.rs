@@ -84,6 +84,9 @@ pub enum BsdfKind {
         /// A thin pane (`thindielectric`): light passes straight through, with the
         /// reflections between its two faces summed.
         thin: bool,
+        /// A rough interface (`roughdielectric`): its microfacet distribution (at
+        /// render time; pass 1 lets light through it as through smooth glass).
+        rough: Option<Microfacet>,
     },
     /// `(1 - weight) * a + weight * b` (`blendbsdf`).
     Blend {

@@ -1,7 +1,7 @@
 //! BSDF plugins: `diffuse`, `conductor`, `roughconductor`, `plastic`, `roughplastic`,
-//! `dielectric`, `thindielectric` (`roughdiffuse` becomes `diffuse`, `roughdielectric`
-//! `dielectric`), `twosided`, `blendbsdf`, `bumpmap`, `normalmap`; the unsupported
-//! ones become diffuse or their nested bsdf.
+//! `dielectric`, `thindielectric`, `roughdielectric` (`roughdiffuse` becomes
+//! `diffuse`), `twosided`, `blendbsdf`, `bumpmap`, `normalmap`; the unsupported ones
+//! become diffuse or their nested bsdf.
 
 use glam::Vec3;
 use roxmltree::Node;
@@ -86,12 +86,11 @@ impl Loader {
                 (kind, false)
             }
             "dielectric" | "thindielectric" | "roughdielectric" => {
-                if ty == "roughdielectric" {
-                    self.rough(s, c, &ty, "dielectric");
-                    for p in ["alpha", "alpha_u", "alpha_v", "distribution", "sample_visible"] {
-                        obj.get(p);
-                    }
-                }
+                let rough = if ty == "roughdielectric" {
+                    Some(self.microfacet(s, c, &obj)?)
+                } else {
+                    None
+                };
                 let int_ior = ior(&obj, "int_ior", 1.5046)?;
                 let ext_ior = ior(&obj, "ext_ior", 1.000277)?;
                 let specular_reflectance = obj.reflectance("specular_reflectance", 1.0)?;
@@ -102,6 +101,7 @@ impl Loader {
                     specular_reflectance,
                     specular_transmittance,
                     thin: ty == "thindielectric",
+                    rough,
                 };
                 // Glass has two sides by nature.
                 (kind, true)
@@ -277,6 +277,20 @@ impl Loader {
     /// Fresnel term from `eta`/`k` or a named `material`, `specular_reflectance`;
     /// Mitsuba 0.6's `ext_eta` divides both).
     fn rough_conductor(&mut self, s: Src, c: Node, obj: &Obj) -> Result<Glossy> {
+        let distribution = self.microfacet(s, c, obj)?;
+        let scale = obj.reflectance("specular_reflectance", 1.0)?;
+        let fresnel = self.conductor_fresnel(s, c, obj)?;
+        Ok(Glossy {
+            distribution,
+            fresnel,
+            scale,
+        })
+    }
+
+    /// The microfacet distribution of `roughconductor` and `roughdielectric`
+    /// (`distribution`, `alpha` or `alpha_u`/`alpha_v`, 0.1 by default); anisotropic
+    /// roughness warns.
+    fn microfacet(&mut self, s: Src, c: Node, obj: &Obj) -> Result<Microfacet> {
         let (beckmann, [alpha, u, v]) = distribution(obj)?;
         let (alpha_u, alpha_v) = match alpha {
             Some(a) => (a, a),
@@ -290,16 +304,10 @@ impl Loader {
                  axes are oriented arbitrarily about the normal",
             );
         }
-        let scale = obj.reflectance("specular_reflectance", 1.0)?;
-        let fresnel = self.conductor_fresnel(s, c, obj)?;
-        Ok(Glossy {
-            distribution: Microfacet {
-                alpha_u,
-                alpha_v,
-                beckmann,
-            },
-            fresnel,
-            scale,
+        Ok(Microfacet {
+            alpha_u,
+            alpha_v,
+            beckmann,
         })
     }
 

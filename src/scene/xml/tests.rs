@@ -854,6 +854,40 @@ fn glass_reads_named_indices_as_mitsuba_and_bad_ones_fail_with_their_line() {
     assert!(e.contains("ext_ior"), "{e}");
 }
 
+/// `roughdielectric`: Mitsuba 3's defaults (Beckmann, alpha 0.1, bk7 in air) and its
+/// parameters, without a warning; a bad distribution fails with its line.
+#[test]
+fn rough_glass_reads_its_distribution_and_roughness() {
+    let l = ok(&[
+        r#"<bsdf type="roughdielectric" id="frosted"><string name="distribution" value="ggx"/><float name="alpha" value="0.3"/><float name="int_ior" value="1.33"/></bsdf>"#,
+        r#"<bsdf type="roughdielectric" id="default"/>"#,
+        r#"<shape type="cube"><ref id="frosted"/></shape>"#,
+        r#"<shape type="cube"><ref id="default"/></shape>"#,
+    ]);
+    assert!(!l.warnings.iter().any(|w| w.contains("bsdf")), "{:?}", l.warnings);
+    let rough = |k: &BsdfKind| match *k {
+        BsdfKind::Dielectric {
+            eta,
+            thin,
+            rough: Some(d),
+            ..
+        } => (eta, thin, d),
+        _ => panic!("{k:?}"),
+    };
+    let (eta, thin, d) = rough(&l.scene.bsdfs[0].kind);
+    assert!((eta - 1.33 / 1.000277).abs() < 1e-6 && !thin);
+    assert_eq!((d.alpha_u, d.alpha_v, d.beckmann), (0.3, 0.3, false));
+    let (eta, _, d) = rough(&l.scene.bsdfs[1].kind);
+    assert!((eta - 1.5046 / 1.000277).abs() < 1e-6);
+    assert_eq!((d.alpha_u, d.alpha_v, d.beckmann), (0.1, 0.1, true));
+    assert!(!l.scene.passes_shadows(0));
+    let e = err(
+        &[r#"<bsdf type="roughdielectric" id="x"><string name="distribution" value="phong"/></bsdf>"#],
+        3,
+    );
+    assert!(e.contains("distribution") && e.contains("'phong'"), "{e}");
+}
+
 // ------------------------------------------------------------- shapes
 
 /// `shapegroup` and `instance`: each instance adds the group's shapes moved by its own
