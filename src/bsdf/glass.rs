@@ -89,6 +89,64 @@ impl BsdfKind {
         let split = self.split(wo, if outside { m } else { -m })?;
         Some(Facet { split, m, n, rough })
     }
+
+    /// Rough glass's BSDF (for radiance) from `wi` to `wo` (unit; either side) at
+    /// shading normal `ns` (unit, outward), and the density per steradian with which
+    /// [`Self::facet`] sends a ray along `wi` (its reflection or its transmission, as
+    /// `wi` lies): Walter et al. (2007), eq. 20 and 21, the transmission for radiance
+    /// (the squared index ratio divided out), with the densities of eq. 14 and 17.
+    /// `None` if the material is not rough glass.
+    pub fn rough_glass_eval(&self, wo: Vec3, wi: Vec3, ns: Vec3) -> Option<(Rgb, f32)> {
+        let BsdfKind::Dielectric {
+            eta,
+            specular_reflectance,
+            specular_transmittance,
+            thin: false,
+            rough: Some(d),
+        } = self
+        else {
+            return None;
+        };
+        let none = Some((Vec3::ZERO, 0.0));
+        let outside = wo.dot(ns) >= 0.0;
+        let n = if outside { ns } else { -ns };
+        let eta = if outside { *eta } else { 1.0 / eta };
+        let frame = Frame::new(n);
+        let (o, i) = (frame.local(wo), frame.local(wi));
+        if !(o.z > 0.0) || i.z == 0.0 {
+            return none;
+        }
+        let (value, pdf) = if i.z > 0.0 {
+            let h = (o + i).normalize();
+            let oh = o.dot(h);
+            if !(oh > 0.0) {
+                return none;
+            }
+            let dh = d.d(h);
+            let f = fresnel_dielectric(oh, eta) * dh * d.g(o, i, h) / (4.0 * o.z * i.z);
+            (*specular_reflectance * f, dh * h.z / (4.0 * oh))
+        } else {
+            let h = (o + i * eta).normalize();
+            let h = if h.z < 0.0 { -h } else { h };
+            let (oh, ih) = (o.dot(h), i.dot(h));
+            if !(oh > 0.0 && ih < 0.0) {
+                return none;
+            }
+            let den = oh + eta * ih;
+            let dh = d.d(h);
+            let f = (1.0 - fresnel_dielectric(oh, eta)) * dh * d.g(o, i, h) * (ih * oh).abs()
+                / (-i.z * o.z * den * den);
+            (
+                *specular_transmittance * f,
+                dh * h.z * eta * eta * ih.abs() / (den * den),
+            )
+        };
+        if value.is_finite() && pdf.is_finite() {
+            Some((value, pdf))
+        } else {
+            none
+        }
+    }
 }
 
 /// The direction refracted from `wi` (unit, pointing away from the surface on the
@@ -127,6 +185,18 @@ impl BsdfKind {
             thin,
             rough: None,
         }
+    }
+
+    /// Whether the material is rough glass (`roughdielectric`).
+    pub fn is_rough_glass(&self) -> bool {
+        matches!(
+            self,
+            BsdfKind::Dielectric {
+                rough: Some(_),
+                thin: false,
+                ..
+            }
+        )
     }
 
     /// Whether the material is glass (reflects and transmits).
@@ -279,11 +349,59 @@ mod tests {
                     }
                 }
                 let what = format!("beckmann {beckmann}, {deg} deg, outside {outside}");
-                assert!((r_mean - r_int).abs() < 0.001 + 0.005 * r_int, "{what}: R {r_mean} vs {r_int}");
-                assert!((t_mean - t_int).abs() < 0.001 + 0.005 * t_int, "{what}: T {t_mean} vs {t_int}");
+                assert!(
+                    (r_mean - r_int).abs() < 0.001 + 0.005 * r_int,
+                    "{what}: R {r_mean} vs {r_int}"
+                );
+                assert!(
+                    (t_mean - t_int).abs() < 0.001 + 0.005 * t_int,
+                    "{what}: T {t_mean} vs {t_int}"
+                );
                 assert!(t_int > 0.2, "{what}: {t_int}");
             }
         }
+    }
+
+    /// Rough glass's BSDF times the cosine over its density, for the rays the facets
+    /// send, is the weight those rays carry (so that the light samples and the rays
+    /// can be weighed against each other).
+    #[test]
+    fn rough_glass_evaluates_to_the_weights_its_rays_carry() {
+        use crate::sampling::uniform3;
+        let kind = BsdfKind::Dielectric {
+            eta: 1.5,
+            specular_reflectance: Vec3::ONE,
+            specular_transmittance: Vec3::ONE,
+            thin: false,
+            rough: Some(Microfacet {
+                alpha_u: 0.2,
+                alpha_v: 0.2,
+                beckmann: false,
+            }),
+        };
+        let mut checked = 0;
+        for (k, ns) in (0..2000).zip([Vec3::Z, -Vec3::Z].into_iter().cycle()) {
+            let [a, b, c] = uniform3(5, k);
+            let wo = Vec3::new(0.8 * a - 0.4, 0.3 * b, 1.0).normalize();
+            let Some(f) = kind.facet(wo, ns, Vec2::new(c, a)) else {
+                continue;
+            };
+            let wr = 2.0 * wo.dot(f.m) * f.m - wo;
+            let mut rays = vec![(wr, f.split.reflect.x * f.weight(wo, wr))];
+            if f.split.transmit.x > 0.0 {
+                rays.push((f.split.dir, f.split.transmit.x * f.weight(wo, f.split.dir)));
+            }
+            for (wi, w) in rays {
+                let (value, pdf) = kind.rough_glass_eval(wo, wi, ns).unwrap();
+                if w > 0.0 {
+                    let got = value.x * wi.dot(ns).abs() / pdf;
+                    assert!((got - w).abs() <= 1e-3 * w.max(1.0), "{got} {w}");
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 2000, "{checked}");
+        assert_eq!(glass(false).rough_glass_eval(Vec3::Z, Vec3::Z, Vec3::Z), None);
     }
 
     /// Rough glass of a tiny roughness splits a ray as smooth glass does.
