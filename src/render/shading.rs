@@ -299,7 +299,6 @@ impl<'a> Tracer<'a> {
             (false, _) | (true, 1..) => 1,
             (true, 0) => GLOSSY_LIGHT_SAMPLES.min(self.area_samples),
         };
-        let power = |a: f32, b: f32| if a > 0.0 { a * a / (a * a + b * b) } else { 0.0 };
         let seed = derive(seed, Stream::Reflection);
         let mut l = Vec3::ZERO;
         for k in 0..n {
@@ -318,45 +317,19 @@ impl<'a> Tracer<'a> {
             if let (true, Some((li, le, p_l))) = (mis, emitter) {
                 let p_b = lobe.pdf(wo_l, wi_l);
                 let r = samples(&lights[li as usize]) as f32;
-                got += le * power(n as f32 * p_b, r * p_l);
+                got += le * power_heuristic(n as f32 * p_b, r * p_l);
             }
             l += w * got / n as f32;
         }
-        for (i, light) in lights.iter().enumerate() {
-            if light.sky().is_some() {
-                continue; // the lobe's rays read the sky
+        // The light samples' BSDF and the lobe's density towards them (the sky's light
+        // is left to the lobe's rays).
+        l += self.light_samples(sp, seed, mis, &samples, counters, |dir| {
+            if sp.ns.dot(dir) <= 0.0 || sp.ng.dot(dir) <= 0.0 {
+                return None;
             }
-            let r = samples(light);
-            let light_seed = derive(seed, Stream::Light(i as u32));
-            let mut cast = 0;
-            for g in 0..r {
-                let (_, _, uv) = group_point(g, r, r, light_seed);
-                let Some(s) = light.sample(sp.p, uv) else { continue };
-                if sp.ns.dot(s.dir) <= 0.0 || sp.ng.dot(s.dir) <= 0.0 {
-                    continue;
-                }
-                let wi_l = frame.local(s.dir);
-                let f = lobe.eval(wi_l, wo_l);
-                if f.max_element() <= 0.0 {
-                    continue;
-                }
-                // The light sample's density per steradian, against the lobe's.
-                let weight = match (mis, light.area(), s.normal) {
-                    (true, Some(area), Some(nl)) => {
-                        let cos_l = -s.dir.dot(nl);
-                        let p_l = s.dist * s.dist / (cos_l * area).max(1e-12);
-                        power(r as f32 * p_l, n as f32 * lobe.pdf(wo_l, wi_l))
-                    }
-                    _ => 1.0,
-                };
-                cast += 1;
-                let t = transmittance(self.scene, self.accel, &sp.shadow_ray(s.point, s.normal));
-                if t > 0.0 {
-                    l += f * s.value * (sp.ns.dot(s.dir) * weight * t / r as f32);
-                }
-            }
-            counters.count_source(i, cast, 0);
-        }
+            let wi_l = frame.local(dir);
+            Some((lobe.eval(wi_l, wo_l), n as f32 * lobe.pdf(wo_l, wi_l)))
+        });
         l
     }
 
@@ -390,6 +363,55 @@ impl<'a> Tracer<'a> {
                 counters.reflection_rays += 1;
                 l += w * follow(self, &r, s, counters);
             }
+        }
+        l
+    }
+
+    /// Direct light at `sp` from light samples of every light but the sky (whose
+    /// light rays drawn from the BSDF find): `samples(light)` of each, a sample
+    /// towards `dir` bringing `bsdf(dir)`'s value (`None` or zero: none, and no shadow
+    /// ray) times the cosine, weighed with `mis` by the power heuristic against the
+    /// density per steradian of the BSDF's rays towards it, which `bsdf` gives too.
+    fn light_samples(
+        &self,
+        sp: &SurfacePoint,
+        seed: u32,
+        mis: bool,
+        samples: &dyn Fn(&SampledLight) -> u32,
+        counters: &mut Counters,
+        bsdf: impl Fn(Vec3) -> Option<(Rgb, f32)>,
+    ) -> Rgb {
+        let mut l = Vec3::ZERO;
+        for (i, light) in self.sources[..self.scene.lights.len()].iter().enumerate() {
+            if light.sky().is_some() {
+                continue;
+            }
+            let r = samples(light);
+            let light_seed = derive(seed, Stream::Light(i as u32));
+            let mut cast = 0;
+            for g in 0..r {
+                let (_, _, uv) = group_point(g, r, r, light_seed);
+                let Some(s) = light.sample(sp.p, uv) else { continue };
+                let Some((f, p_b)) = bsdf(s.dir) else { continue };
+                if f.max_element() <= 0.0 {
+                    continue;
+                }
+                // The light sample's density per steradian, against the BSDF's rays'.
+                let weight = match (mis, light.area(), s.normal) {
+                    (true, Some(area), Some(nl)) => {
+                        let cos_l = -s.dir.dot(nl);
+                        let p_l = s.dist * s.dist / (cos_l * area).max(1e-12);
+                        power_heuristic(r as f32 * p_l, p_b)
+                    }
+                    _ => 1.0,
+                };
+                cast += 1;
+                let t = transmittance(self.scene, self.accel, &sp.shadow_ray(s.point, s.normal));
+                if t > 0.0 {
+                    l += f * s.value * (sp.ns.dot(s.dir).abs() * weight * t / r as f32);
+                }
+            }
+            counters.count_source(i, cast, 0);
         }
         l
     }
@@ -429,7 +451,6 @@ impl<'a> Tracer<'a> {
                 1
             }
         };
-        let power = |a: f32, b: f32| if a > 0.0 { a * a / (a * a + b * b) } else { 0.0 };
         let mut l = Vec3::ZERO;
         for (r, w, s) in glass::rays(kind, sp, ray.dir, depth, seed) {
             counters.reflection_rays += 1;
@@ -437,47 +458,18 @@ impl<'a> Tracer<'a> {
             let mut got = radiance;
             if let Some((li, le, p_l)) = emitter {
                 let p_b = kind.rough_glass_eval(wo, r.dir, outward).map_or(0.0, |x| x.1);
-                got += le * power(p_b, samples(&lights[li as usize]) as f32 * p_l);
+                got += le * power_heuristic(p_b, samples(&lights[li as usize]) as f32 * p_l);
             }
             l += w * got;
         }
         let seed = derive(seed, Stream::Reflection);
-        for (i, light) in lights.iter().enumerate() {
-            if light.sky().is_some() {
-                continue; // the rays read the sky
+        l += self.light_samples(sp, seed, true, &samples, counters, |dir| {
+            // The same side of the surface by both normals.
+            if (dir.dot(sp.ng) > 0.0) != (dir.dot(sp.ns) > 0.0) {
+                return None;
             }
-            let r = samples(light);
-            let light_seed = derive(seed, Stream::Light(i as u32));
-            let mut cast = 0;
-            for g in 0..r {
-                let (_, _, uv) = group_point(g, r, r, light_seed);
-                let Some(s) = light.sample(sp.p, uv) else { continue };
-                // The same side of the surface by both normals.
-                if (s.dir.dot(sp.ng) > 0.0) != (s.dir.dot(sp.ns) > 0.0) {
-                    continue;
-                }
-                let Some((f, p_b)) = kind.rough_glass_eval(wo, s.dir, outward) else {
-                    continue;
-                };
-                if f.max_element() <= 0.0 {
-                    continue;
-                }
-                let weight = match (light.area(), s.normal) {
-                    (Some(area), Some(nl)) => {
-                        let cos_l = -s.dir.dot(nl);
-                        let p_l = s.dist * s.dist / (cos_l * area).max(1e-12);
-                        power(r as f32 * p_l, p_b)
-                    }
-                    _ => 1.0,
-                };
-                cast += 1;
-                let t = transmittance(self.scene, self.accel, &sp.shadow_ray(s.point, s.normal));
-                if t > 0.0 {
-                    l += f * s.value * (sp.ns.dot(s.dir).abs() * weight * t / r as f32);
-                }
-            }
-            counters.count_source(i, cast, 0);
-        }
+            kind.rough_glass_eval(wo, dir, outward)
+        });
         Some(l)
     }
 
@@ -675,6 +667,16 @@ pub const GLOSSY_LIGHT_SAMPLES: u32 = 4;
 /// up at a point) over `mean`, the albedo the solution was computed with there (the
 /// patch's: its texture's mean over the patch). 1 for an untextured material, and where
 /// that albedo is 0: nothing was stored there to scale.
+/// The power heuristic's weight (Veach 1997, beta 2) of a sample drawn with density
+/// `a` against another strategy's `b` (each times its sample count).
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    if a > 0.0 {
+        a * a / (a * a + b * b)
+    } else {
+        0.0
+    }
+}
+
 fn texture_ratio(bsdf: &Bsdf, kind: &BsdfKind, mean: Rgb) -> Rgb {
     if bsdf.textures.is_empty() {
         return Vec3::ONE;
