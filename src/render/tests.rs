@@ -664,17 +664,66 @@ fn a_texture_scales_what_a_surface_reflects_by_its_texel_over_its_vertices_mean(
     );
 }
 
-/// A glossy floor under a small square lamp, nothing else: the radiance the floor
-/// reflects towards a viewer, averaged over many seeds, is the lobe integrated over
-/// the lamp (a fine quadrature of BRDF x Le x cos x cos / r^2), for a wide and a sharp
-/// lobe: the lamp's light samples and the lobe's rays that meet it, weighed against
-/// each other, count it once.
-#[test]
-fn a_glossy_floor_reflects_an_area_light_once_by_light_samples_and_lobe_rays() {
+/// A 6 x 6 m floor of `floor` at z = 0 under a 0.4 x 0.4 m square lamp of radiance 5
+/// at height 1, nothing else, seen from (-0.5, 0, 1) towards the origin (so that the
+/// lamp sits in a lobe's peak): the radiance the tracer returns, averaged over 4000
+/// seeds, and a fine quadrature over the lamp of `brdf(wi, wo)` x Le x cos x cos / r^2.
+fn floor_under_a_lamp(floor: crate::scene::BsdfKind, brdf: impl Fn(Vec3, Vec3) -> f32) -> (f32, f32) {
     use crate::accel::Ray;
     use crate::geometry::TriMesh;
-    use crate::scene::{BsdfKind, Fresnel, Glossy, Microfacet};
+    use crate::scene::BsdfKind;
     use crate::testutil::{scene_with, square};
+    let (x0, x1, y0, y1, h) = (0.3f32, 0.7, -0.2, 0.2, 1.0);
+    let lamp: TriMesh = square(x0, x1, y0, y1, h, true);
+    let le = 5.0f32;
+    let s = scene_with(
+        vec![
+            (square(-3.0, 3.0, -3.0, 3.0, 0.0, false), floor),
+            (
+                lamp,
+                BsdfKind::Diffuse {
+                    reflectance: Vec3::ZERO,
+                },
+            ),
+        ],
+        vec![],
+        &[(1, Vec3::splat(le))],
+    );
+    let bvh = Bvh::build(&s);
+    let sol = solve(&s, &bvh, &solve_settings(0.2, 4), &crate::progress::Silent).unwrap();
+    let sel = select(&s, &sol, Method::Local, &SelectSettings::default(), None).unwrap();
+    let st = settings(Method::Local);
+    let tracer = crate::render::Tracer::with_selection(&s, &bvh, &st, &sel);
+    let eye = Vec3::new(-0.5, 0.0, 1.0);
+    let wo = eye.normalize();
+    let ray = Ray::new(eye, -wo);
+    let n = 4000;
+    let mut c = crate::render::Counters::default();
+    let est: f32 = (0..n).map(|k| tracer.radiance(&ray, 0, k, &mut c).x).sum::<f32>() / n as f32;
+    let m = 400;
+    let mut want = 0.0f64;
+    for i in 0..m {
+        for j in 0..m {
+            let p = Vec3::new(
+                x0 + (x1 - x0) * (i as f32 + 0.5) / m as f32,
+                y0 + (y1 - y0) * (j as f32 + 0.5) / m as f32,
+                h,
+            );
+            let r2 = p.length_squared();
+            let wi = p / r2.sqrt();
+            want += f64::from(brdf(wi, wo) * le * wi.z * wi.z / r2);
+        }
+    }
+    (est, want as f32 * (x1 - x0) * (y1 - y0) / (m * m) as f32)
+}
+
+/// A glossy floor under a small square lamp, nothing else: the radiance the floor
+/// reflects towards a viewer, averaged over many seeds, is the lobe integrated over
+/// the lamp, for a wide and a sharp lobe: the lamp's light samples and the lobe's
+/// rays that meet it, weighed against each other, count it once.
+#[test]
+fn a_glossy_floor_reflects_an_area_light_once_by_light_samples_and_lobe_rays() {
+    use crate::scene::{BsdfKind, Fresnel, Glossy, Microfacet};
     for alpha in [0.4f32, 0.08] {
         let lobe = Glossy {
             distribution: Microfacet {
@@ -685,54 +734,7 @@ fn a_glossy_floor_reflects_an_area_light_once_by_light_samples_and_lobe_rays() {
             fresnel: Fresnel::Schlick { f0: Vec3::splat(0.9) },
             scale: Vec3::ONE,
         };
-        let (x0, x1, y0, y1, h) = (0.3f32, 0.7, -0.2, 0.2, 1.0);
-        let lamp: TriMesh = square(x0, x1, y0, y1, h, true);
-        let le = 5.0f32;
-        let s = scene_with(
-            vec![
-                (
-                    square(-3.0, 3.0, -3.0, 3.0, 0.0, false),
-                    BsdfKind::RoughConductor { lobe },
-                ),
-                (
-                    lamp,
-                    BsdfKind::Diffuse {
-                        reflectance: Vec3::ZERO,
-                    },
-                ),
-            ],
-            vec![],
-            &[(1, Vec3::splat(le))],
-        );
-        let bvh = Bvh::build(&s);
-        let sol = solve(&s, &bvh, &solve_settings(0.2, 4), &crate::progress::Silent).unwrap();
-        let sel = select(&s, &sol, Method::Local, &SelectSettings::default(), None).unwrap();
-        let st = settings(Method::Local);
-        let tracer = crate::render::Tracer::with_selection(&s, &bvh, &st, &sel);
-        // The viewer looks at the floor's origin from the side opposite the lamp, so
-        // the lamp sits in the lobe's peak.
-        let eye = Vec3::new(-0.5, 0.0, 1.0);
-        let wo = eye.normalize();
-        let ray = Ray::new(eye, -wo);
-        let n = 4000;
-        let mut c = crate::render::Counters::default();
-        let est: f32 = (0..n).map(|k| tracer.radiance(&ray, 0, k, &mut c).x).sum::<f32>() / n as f32;
-        let m = 400;
-        let mut want = 0.0f64;
-        for i in 0..m {
-            for j in 0..m {
-                let p = Vec3::new(
-                    x0 + (x1 - x0) * (i as f32 + 0.5) / m as f32,
-                    y0 + (y1 - y0) * (j as f32 + 0.5) / m as f32,
-                    h,
-                );
-                let r2 = p.length_squared();
-                let wi = p / r2.sqrt();
-                let f = lobe.eval(wi, wo).x;
-                want += f64::from(f * le * wi.z * wi.z / r2);
-            }
-        }
-        let want = want as f32 * (x1 - x0) * (y1 - y0) / (m * m) as f32;
+        let (est, want) = floor_under_a_lamp(BsdfKind::RoughConductor { lobe }, |wi, wo| lobe.eval(wi, wo).x);
         assert!(want > 0.1, "{want}");
         assert!((est - want).abs() < 0.03 * want, "alpha {alpha}: {est} vs {want}");
     }
@@ -741,16 +743,13 @@ fn a_glossy_floor_reflects_an_area_light_once_by_light_samples_and_lobe_rays() {
 /// A rough glass floor under a small square lamp, nothing else below or beside: the
 /// radiance it reflects towards a viewer, averaged over many seeds, is Walter et
 /// al.'s (2007) microfacet BRDF, F D G / (4 |cos i| |cos o|), integrated over the
-/// lamp by quadrature, for a wide and a sharp lobe: the lamp's light samples and
-/// the rays drawn from the facets, weighed against each other, count it once (the
-/// transmitted rays meet nothing).
+/// lamp, for a wide and a sharp lobe: the lamp's light samples and the rays drawn
+/// from the facets, weighed against each other, count it once (the transmitted rays
+/// meet nothing).
 #[test]
 fn a_rough_glass_floor_reflects_an_area_light_once_by_light_samples_and_facet_rays() {
-    use crate::accel::Ray;
     use crate::bsdf::fresnel_dielectric;
-    use crate::geometry::TriMesh;
     use crate::scene::{BsdfKind, Microfacet};
-    use crate::testutil::{scene_with, square};
     for (alpha, beckmann) in [(0.3f32, false), (0.1, true)] {
         let d = Microfacet {
             alpha_u: alpha,
@@ -764,50 +763,10 @@ fn a_rough_glass_floor_reflects_an_area_light_once_by_light_samples_and_facet_ra
             thin: false,
             rough: Some(d),
         };
-        let (x0, x1, y0, y1, h) = (0.3f32, 0.7, -0.2, 0.2, 1.0);
-        let lamp: TriMesh = square(x0, x1, y0, y1, h, true);
-        let le = 5.0f32;
-        let s = scene_with(
-            vec![
-                (square(-3.0, 3.0, -3.0, 3.0, 0.0, false), glass),
-                (
-                    lamp,
-                    BsdfKind::Diffuse {
-                        reflectance: Vec3::ZERO,
-                    },
-                ),
-            ],
-            vec![],
-            &[(1, Vec3::splat(le))],
-        );
-        let bvh = Bvh::build(&s);
-        let sol = solve(&s, &bvh, &solve_settings(0.2, 4), &crate::progress::Silent).unwrap();
-        let sel = select(&s, &sol, Method::Local, &SelectSettings::default(), None).unwrap();
-        let st = settings(Method::Local);
-        let tracer = crate::render::Tracer::with_selection(&s, &bvh, &st, &sel);
-        let eye = Vec3::new(-0.5, 0.0, 1.0);
-        let wo = eye.normalize();
-        let ray = Ray::new(eye, -wo);
-        let n = 4000;
-        let mut c = crate::render::Counters::default();
-        let est: f32 = (0..n).map(|k| tracer.radiance(&ray, 0, k, &mut c).x).sum::<f32>() / n as f32;
-        let m = 400;
-        let mut want = 0.0f64;
-        for i in 0..m {
-            for j in 0..m {
-                let p = Vec3::new(
-                    x0 + (x1 - x0) * (i as f32 + 0.5) / m as f32,
-                    y0 + (y1 - y0) * (j as f32 + 0.5) / m as f32,
-                    h,
-                );
-                let r2 = p.length_squared();
-                let wi = p / r2.sqrt();
-                let hv = (wi + wo).normalize();
-                let f = fresnel_dielectric(wo.dot(hv), 1.5) * d.d(hv) * d.g(wo, wi, hv) / (4.0 * wi.z * wo.z);
-                want += f64::from(f * le * wi.z * wi.z / r2);
-            }
-        }
-        let want = want as f32 * (x1 - x0) * (y1 - y0) / (m * m) as f32;
+        let (est, want) = floor_under_a_lamp(glass, |wi, wo| {
+            let h = (wi + wo).normalize();
+            fresnel_dielectric(wo.dot(h), 1.5) * d.d(h) * d.g(wo, wi, h) / (4.0 * wi.z * wo.z)
+        });
         assert!(want > 0.01, "{want}");
         assert!((est - want).abs() < 0.04 * want, "alpha {alpha}: {est} vs {want}");
     }
