@@ -260,6 +260,49 @@ pub fn transmittance(scene: &Scene, accel: &dyn Accel, ray: &Ray) -> f32 {
     }
 }
 
+/// [`transmittance`] for light that glass lets through (the sky's shot in pass 1,
+/// through the windows): thick glass passes the shadow ray on too, unbent, each face
+/// dimmed by its Fresnel transmittance at the ray's angle
+/// ([`BsdfKind::straight_transmittance`]: exact for the two parallel faces of a
+/// window pane; a glass object's focusing is left out); thin panes and masks as
+/// [`pane_transmittance`]. `thick`: whether the scene has thick glass
+/// ([`Scene::has_thick_glass`]); without, this is [`transmittance`]. (Mitsuba's path
+/// tracer finds that light by rays that refract through the pane and meet the sky;
+/// with shadow rays stopped there, a room behind a `dielectric` window pane under a
+/// sky got no light at all.)
+pub fn glass_transmittance(scene: &Scene, accel: &dyn Accel, ray: &Ray, thick: bool) -> f32 {
+    if !thick {
+        return transmittance(scene, accel, ray);
+    }
+    let mut r = *ray;
+    let mut share = 1.0;
+    // A bound keeps a degenerate stack of surfaces finite.
+    for _ in 0..64 {
+        let Some(hit) = accel.intersect(&r) else {
+            return share;
+        };
+        let sp = SurfacePoint::new(scene, &r, &hit);
+        let cos = sp.ng.dot(r.dir) / r.dir.length();
+        let bsdf = &scene.bsdfs[scene.shapes[hit.shape as usize].bsdf as usize];
+        let masked = bsdf.masked();
+        let glass = bsdf
+            .kind
+            .straight_transmittance(cos)
+            .unwrap_or(if masked { 1.0 } else { 0.0 });
+        let open = if masked {
+            1.0 - sp.opacity(scene, bsdf)
+        } else {
+            1.0
+        };
+        share *= glass * open;
+        if share <= 0.0 {
+            return 0.0;
+        }
+        r.tmin = hit.t + ray_epsilon(sp.p) / r.dir.length();
+    }
+    0.0
+}
+
 /// The product of the transmittances of the thin panes of glass shadow ray `ray`
 /// crosses (1 if none; the panes are traced alone, [`Accel::panes`]). Kept apart from
 /// the occlusion, which the shadow image buffer reuses, so that a reused "lit" is

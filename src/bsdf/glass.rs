@@ -220,6 +220,25 @@ impl BsdfKind {
         }
     }
 
+    /// The share of light a ray carries on through one face of glass at cosine `cos`
+    /// to its normal as if unbent: a thin pane's transmittance, or thick glass's
+    /// Fresnel transmittance of the face (the same on both faces of a pane, whose
+    /// parallel faces leave the ray's direction as it was); `None` if the material is
+    /// not glass.
+    pub fn straight_transmittance(&self, cos: f32) -> Option<f32> {
+        match self {
+            BsdfKind::Dielectric { thin: true, .. } => self.shadow_transmittance(cos),
+            BsdfKind::Dielectric {
+                eta,
+                specular_transmittance,
+                ..
+            } => Some(
+                (1.0 - fresnel_dielectric(cos.abs(), *eta)) * crate::scene::mean(*specular_transmittance),
+            ),
+            _ => None,
+        }
+    }
+
     /// What glass does to a ray arriving along `-wo` at a surface of shading normal
     /// `ns` (unit; `wo` on either side): `None` if the material is not glass.
     pub fn split(&self, wo: Vec3, ns: Vec3) -> Option<Split> {

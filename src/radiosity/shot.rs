@@ -8,7 +8,7 @@ use glam::Vec3;
 use super::{transfer, AtVertex, Solver};
 use crate::emitters::SampledLight;
 use crate::geometry::point_polygon_form_factor;
-use crate::interaction::{ray_epsilon, shadow_ray, transmittance};
+use crate::interaction::{glass_transmittance, ray_epsilon, shadow_ray, transmittance};
 use crate::mesh::{point_in_polygon, MeshVertex};
 use crate::sampling::stratum;
 use crate::scene::{mean, Rgb};
@@ -322,6 +322,8 @@ impl Solver<'_> {
         mut links: Option<&mut Vec<transfer::Link>>,
     ) -> AtVertex {
         let (x, n) = (v.q, v.n);
+        // The sky's light comes through thick glass too (a window pane).
+        let thick = points.iter().any(|p| p.far) && self.scene.has_thick_glass();
         // Rays through of `per` to cell `k` (one at a point: a light in space, or a
         // curved cell's point), with the one shadow-ray rule of both passes: to a light
         // point in space, or to a point of the shooting cell's surface.
@@ -347,7 +349,12 @@ impl Solver<'_> {
                     1.0
                 };
                 weights += w;
-                let t = transmittance(self.scene, self.accel, &shadow_ray(x, n, target, normal));
+                let ray = shadow_ray(x, n, target, normal);
+                let t = if sp.far {
+                    glass_transmittance(self.scene, self.accel, &ray, thick)
+                } else {
+                    transmittance(self.scene, self.accel, &ray)
+                };
                 if t > 0.0 {
                     hits += 1;
                     light += t * w;

@@ -1043,6 +1043,75 @@ fn a_box_split_by_a_thin_pane_absorbs_all_the_light() {
     );
 }
 
+/// A floor under a uniform sky of radiance L with a slab of thick glass (`dielectric`,
+/// index 1.5, 2 cm thick, 12 x 12 m) a metre above it: the floor's centre gets the sky
+/// through the slab's two faces, each passing 1 - F of the light at its angle, where
+/// the slab covers the sky, and the open sky below its edge: the quadrature of L (1 -
+/// F)^2 cos, and of L cos, over those directions. (Shadow rays stopped by thick glass
+/// left it the low sky alone, 3 % of the light.)
+#[test]
+fn the_sky_reaches_a_floor_through_a_slab_of_thick_glass() {
+    use crate::bsdf::fresnel_dielectric;
+    use crate::scene::BsdfKind;
+    let mut plane = crate::testutil::split_square(8.0, 0.0, 16);
+    for p in &mut plane.positions {
+        *p -= Vec3::new(4.0, 4.0, 0.0);
+    }
+    let (l, rho, half, h) = (0.8f32, 0.5f32, 6.0f32, 1.0f32);
+    let mut shapes = vec![(
+        plane,
+        BsdfKind::Diffuse {
+            reflectance: Vec3::splat(rho),
+        },
+    )];
+    for f in box_outside(v(-half, -half, h), v(half, half, h + 0.02)) {
+        shapes.push((f, BsdfKind::clear_glass(1.5, false)));
+    }
+    let sky = Light::Environment {
+        radiance: Vec3::splat(l),
+        texture: None,
+        to_local: glam::Mat3::IDENTITY,
+    };
+    let s = crate::testutil::scene_with(shapes, vec![sky], &[]);
+    let sol = solve(&s, &Bvh::build(&s), &settings(0.5, 64, 0), &Silent).unwrap();
+    let total = sol.total();
+    let (i, _) = sol
+        .mesh
+        .vertices
+        .iter()
+        .enumerate()
+        .filter(|(_, vx)| vx.q.z == 0.0 && vx.n.z > 0.0)
+        .min_by(|a, b| a.1.q.truncate().length().total_cmp(&b.1.q.truncate().length()))
+        .unwrap();
+    let got = total[i].x;
+    // Quadrature over the upper hemisphere (uniform in cos theta and phi).
+    let (nc, np) = (2000, 720);
+    let mut e = 0.0f64;
+    for a in 0..nc {
+        for b in 0..np {
+            let c = (a as f32 + 0.5) / nc as f32;
+            let phi = (b as f32 + 0.5) / np as f32 * std::f32::consts::TAU;
+            let sn = (1.0 - c * c).sqrt();
+            // Where the direction meets the slab's height, and whether that is on it.
+            let reach = h / c * sn;
+            let on = (reach * phi.cos()).abs() <= half && (reach * phi.sin()).abs() <= half;
+            let t = if on {
+                (1.0 - fresnel_dielectric(c, 1.5)).powi(2)
+            } else {
+                1.0
+            };
+            e += f64::from(l * t * c);
+        }
+    }
+    let want = rho * (e * std::f64::consts::TAU / (nc * np) as f64) as f32;
+    let open = rho * PI * l;
+    assert!(want < 0.95 * open && want > 0.85 * open, "{want} of {open}");
+    assert!(
+        (got - want).abs() < 0.03 * want,
+        "{got} vs {want} (open sky: {open})"
+    );
+}
+
 /// An open floor under a uniform sky of radiance L (`constant`): every vertex gets
 /// irradiance pi L from the upper hemisphere's cells (their form factors sum to 1),
 /// so radiosity rho pi L; beside a box the sky is partly hidden, never brighter.

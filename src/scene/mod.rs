@@ -534,6 +534,16 @@ impl Scene {
             .map_or(Vec3::ZERO, |(_, l)| l.environment_radiance(dir, &self.textures))
     }
 
+    /// Whether some shape's material is thick glass (`dielectric`,
+    /// `roughdielectric`).
+    pub fn has_thick_glass(&self) -> bool {
+        self.shapes.iter().any(|shape| {
+            self.bsdfs
+                .get(shape.bsdf as usize)
+                .is_some_and(|b| matches!(b.kind, BsdfKind::Dielectric { thin: false, .. }))
+        })
+    }
+
     /// Whether shadow rays pass through shape `s` (a thin pane of glass,
     /// `thindielectric`: light crosses it unbent, so its shadow is only a dimming; or
     /// a `mask`ed surface, where it is not opaque).
