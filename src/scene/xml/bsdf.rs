@@ -53,7 +53,10 @@ impl Loader {
             }
             "plastic" | "roughplastic" => {
                 let distribution = match ty.as_str() {
-                    "roughplastic" => Some(rough_plastic(&obj)?),
+                    "roughplastic" => {
+                        self.roughness_maps(s, &obj);
+                        Some(rough_plastic(&obj)?)
+                    }
                     _ => None,
                 };
                 let diffuse_reflectance = obj.reflectance("diffuse_reflectance", 0.5)?;
@@ -291,6 +294,7 @@ impl Loader {
     /// (`distribution`, `alpha` or `alpha_u`/`alpha_v`, 0.1 by default); anisotropic
     /// roughness warns.
     fn microfacet(&mut self, s: Src, c: Node, obj: &Obj) -> Result<Microfacet> {
+        self.roughness_maps(s, obj);
         let (beckmann, [alpha, u, v]) = distribution(obj)?;
         let (alpha_u, alpha_v) = match alpha {
             Some(a) => (a, a),
@@ -309,6 +313,25 @@ impl Loader {
             alpha_v,
             beckmann,
         })
+    }
+
+    /// Warns of a roughness given by a texture: the lobe takes its mean, the same
+    /// everywhere.
+    fn roughness_maps(&mut self, s: Src, obj: &Obj) {
+        for name in ["alpha", "alpha_u", "alpha_v"] {
+            let Some(p) = obj.get(name) else { continue };
+            if let Val::Texture(t) = p.val {
+                let mean = t
+                    .mean
+                    .map_or(String::new(), |m| format!(" ({:.3})", m.element_sum() / 3.0));
+                let node = p.node;
+                self.warn(
+                    s,
+                    node,
+                    format!("a texture as '{name}': the roughness is its mean{mean} everywhere"),
+                );
+            }
+        }
     }
 
     /// A conductor's Fresnel term, as `conductor` and `roughconductor` read it: from

@@ -73,7 +73,7 @@ impl Val {
 pub(super) struct Prop<'a, 'i> {
     pub(super) name: String,
     pub(super) val: Val,
-    node: Node<'a, 'i>,
+    pub(super) node: Node<'a, 'i>,
     used: Cell<bool>,
 }
 

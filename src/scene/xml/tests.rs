@@ -855,7 +855,8 @@ fn glass_reads_named_indices_as_mitsuba_and_bad_ones_fail_with_their_line() {
 }
 
 /// `roughdielectric`: Mitsuba 3's defaults (Beckmann, alpha 0.1, bk7 in air) and its
-/// parameters, without a warning; a bad distribution fails with its line.
+/// parameters, without a warning; a roughness map is read as its mean, with a
+/// warning; a bad distribution fails with its line.
 #[test]
 fn rough_glass_reads_its_distribution_and_roughness() {
     let l = ok(&[
@@ -881,6 +882,19 @@ fn rough_glass_reads_its_distribution_and_roughness() {
     assert!((eta - 1.5046 / 1.000277).abs() < 1e-6);
     assert_eq!((d.alpha_u, d.alpha_v, d.beckmann), (0.1, 0.1, true));
     assert!(!l.scene.passes_shadows(0));
+    // A roughness map: its mean, with a warning naming it.
+    let l = ok(&[
+        r#"<bsdf type="roughdielectric" id="map"><texture type="checkerboard" name="alpha"><rgb name="color0" value="0.1"/><rgb name="color1" value="0.4"/></texture></bsdf>"#,
+        r#"<shape type="cube"><ref id="map"/></shape>"#,
+    ]);
+    assert!(
+        l.warnings
+            .iter()
+            .any(|w| w.contains("texture as 'alpha'") && w.contains("(0.250)")),
+        "{:?}",
+        l.warnings
+    );
+    assert_eq!(rough(&l.scene.bsdfs[0].kind).2.alpha_u, 0.25);
     let e = err(
         &[r#"<bsdf type="roughdielectric" id="x"><string name="distribution" value="phong"/></bsdf>"#],
         3,
