@@ -3,7 +3,7 @@
 
 use glam::{Vec2, Vec3};
 
-use crate::accel::Accel;
+use crate::accel::{Accel, Hit, Ray};
 use crate::interaction::{emission_ray, SurfacePoint};
 use crate::scene::Scene;
 
@@ -46,6 +46,22 @@ fn surface_diagonal(scene: &Scene) -> f32 {
         }
     }
     (hi - lo).length()
+}
+
+/// The first surface `ray` meets that is not glass, the ray going on straight through
+/// glass (a lamp's bulb, a window pane: the light they pass lights the room beyond;
+/// a bulb round a lamp made the lit region the bulb, and the elements a centimetre
+/// wide). `None` if it meets none (or only a stack of 16 glass surfaces).
+fn past_glass(scene: &Scene, accel: &dyn Accel, mut ray: Ray) -> Option<(Ray, Hit)> {
+    for _ in 0..16 {
+        let hit = accel.intersect(&ray)?;
+        let shape = &scene.shapes[hit.shape as usize];
+        if !scene.bsdfs[shape.bsdf as usize].kind.is_glass() {
+            return Some((ray, hit));
+        }
+        ray = SurfacePoint::new(scene, &ray, &hit).spawn(ray.dir, f32::INFINITY);
+    }
+    None
 }
 
 /// Rays the lights send to find the region they light.
@@ -94,8 +110,7 @@ pub fn lit_diagonal(scene: &Scene, accel: &dyn Accel) -> Option<f32> {
                 continue;
             };
             let w = e.power.x + e.power.y + e.power.z;
-            let ray = emission_ray(&e);
-            let Some(hit) = accel.intersect(&ray).filter(|_| w > 0.0) else {
+            let Some((ray, hit)) = past_glass(scene, accel, emission_ray(&e)).filter(|_| w > 0.0) else {
                 continue;
             };
             let sp = SurfacePoint::new(scene, &ray, &hit);
@@ -107,7 +122,7 @@ pub fn lit_diagonal(scene: &Scene, accel: &dyn Accel) -> Option<f32> {
                 crate::sampling::cosine_direction(n, Vec2::new(f, g)),
                 f32::INFINITY,
             );
-            if let Some(h) = accel.intersect(&next) {
+            if let Some((next, h)) = past_glass(scene, accel, next) {
                 hits.push((next.at(h.t), w));
             }
         }

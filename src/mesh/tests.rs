@@ -1024,6 +1024,36 @@ fn the_default_element_size_follows_the_lit_room_not_a_ground_plane_around_it() 
     );
 }
 
+/// A glass bulb round the lamp (a closed box of `dielectric`, 10 cm a side) leaves
+/// the default element size as it was: the light rays that find the lit region go
+/// on through glass (they stopped at the bulb, and the elements came out a hundredth
+/// of the scene's diagonal wide).
+#[test]
+fn a_glass_bulb_round_the_lamp_leaves_the_element_size_as_it_was() {
+    let bare = room_on_a_ground_plane();
+    let size = default_mesh_size(&bare, &Bvh::build(&bare));
+    let mut bulb = bare.clone();
+    let glass = bulb.bsdfs.len() as u32;
+    bulb.bsdfs.push(crate::scene::Bsdf {
+        name: "glass".into(),
+        kind: crate::scene::BsdfKind::clear_glass(1.5, false),
+        twosided: true,
+        textures: Vec::new(),
+    });
+    for f in crate::testutil::box_outside(v(-0.05, 1.95, -0.05), v(0.05, 2.05, 0.05)) {
+        let mut shape = bulb.shapes[0].clone();
+        shape.mesh = f;
+        shape.bsdf = glass;
+        shape.emitter = None;
+        bulb.shapes.push(shape);
+    }
+    let with = default_mesh_size(&bulb, &Bvh::build(&bulb));
+    assert!(
+        (with - size).abs() < 0.05 * size,
+        "{with} with the bulb, {size} without"
+    );
+}
+
 #[test]
 fn a_surface_too_large_for_one_patch_is_cut_into_patches_found_by_position() {
     let s = room_on_a_ground_plane();
