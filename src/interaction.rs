@@ -274,33 +274,7 @@ pub fn glass_transmittance(scene: &Scene, accel: &dyn Accel, ray: &Ray, thick: b
     if !thick {
         return transmittance(scene, accel, ray);
     }
-    let mut r = *ray;
-    let mut share = 1.0;
-    // A bound keeps a degenerate stack of surfaces finite.
-    for _ in 0..64 {
-        let Some(hit) = accel.intersect(&r) else {
-            return share;
-        };
-        let sp = SurfacePoint::new(scene, &r, &hit);
-        let cos = sp.ng.dot(r.dir) / r.dir.length();
-        let bsdf = &scene.bsdfs[scene.shapes[hit.shape as usize].bsdf as usize];
-        let masked = bsdf.masked();
-        let glass = bsdf
-            .kind
-            .straight_transmittance(cos)
-            .unwrap_or(if masked { 1.0 } else { 0.0 });
-        let open = if masked {
-            1.0 - sp.opacity(scene, bsdf)
-        } else {
-            1.0
-        };
-        share *= glass * open;
-        if share <= 0.0 {
-            return 0.0;
-        }
-        r.tmin = hit.t + ray_epsilon(sp.p) / r.dir.length();
-    }
-    0.0
+    passed(scene, accel, ray, |kind, cos| kind.straight_transmittance(cos))
 }
 
 /// The product of the transmittances of the thin panes of glass shadow ray `ray`
@@ -308,31 +282,34 @@ pub fn glass_transmittance(scene: &Scene, accel: &dyn Accel, ray: &Ray, thick: b
 /// the occlusion, which the shadow image buffer reuses, so that a reused "lit" is
 /// dimmed by the panes as a cast one is.
 pub fn pane_transmittance(scene: &Scene, accel: &dyn Accel, ray: &Ray) -> f32 {
-    let Some(panes) = accel.panes() else {
-        return 1.0;
-    };
+    match accel.panes() {
+        Some(panes) => passed(scene, panes, ray, |kind, cos| kind.shadow_transmittance(cos)),
+        None => 1.0,
+    }
+}
+
+/// The share of light `ray` carries past every surface of `accel` it meets: each
+/// passes `pass(material, cos)` of it (`None`: none, unless masked) times the share
+/// a `mask` leaves open there.
+fn passed(scene: &Scene, accel: &dyn Accel, ray: &Ray, pass: impl Fn(&BsdfKind, f32) -> Option<f32>) -> f32 {
     let mut r = *ray;
     let mut share = 1.0;
-    // Panes are few along a ray; a bound keeps a degenerate stack of them finite.
+    // Such surfaces are few along a ray; a bound keeps a degenerate stack finite.
     for _ in 0..64 {
-        let Some(hit) = panes.intersect(&r) else {
+        let Some(hit) = accel.intersect(&r) else {
             break;
         };
         let sp = SurfacePoint::new(scene, &r, &hit);
         let cos = sp.ng.dot(r.dir) / r.dir.length();
         let bsdf = &scene.bsdfs[scene.shapes[hit.shape as usize].bsdf as usize];
-        // A pane's transmittance, times the share a mask lets through.
         let masked = bsdf.masked();
-        let pane = bsdf
-            .kind
-            .shadow_transmittance(cos)
-            .unwrap_or(if masked { 1.0 } else { 0.0 });
+        let through = pass(&bsdf.kind, cos).unwrap_or(if masked { 1.0 } else { 0.0 });
         let open = if masked {
             1.0 - sp.opacity(scene, bsdf)
         } else {
             1.0
         };
-        share *= pane * open;
+        share *= through * open;
         if share <= 0.0 {
             return 0.0;
         }
