@@ -322,8 +322,6 @@ impl Solver<'_> {
         mut links: Option<&mut Vec<transfer::Link>>,
     ) -> AtVertex {
         let (x, n) = (v.q, v.n);
-        // The sky's light comes through thick glass too (a window pane).
-        let thick = points.iter().any(|p| p.far) && self.scene.has_thick_glass();
         // Rays through of `per` to cell `k` (one at a point: a light in space, or a
         // curved cell's point), with the one shadow-ray rule of both passes: to a light
         // point in space, or to a point of the shooting cell's surface.
@@ -350,8 +348,9 @@ impl Solver<'_> {
                 };
                 weights += w;
                 let ray = shadow_ray(x, n, target, normal);
+                // The sky's light comes through thick glass too (a window pane).
                 let t = if sp.far {
-                    glass_transmittance(self.scene, self.accel, &ray, thick)
+                    glass_transmittance(self.scene, self.accel, &ray, self.thick_glass)
                 } else {
                     transmittance(self.scene, self.accel, &ray)
                 };

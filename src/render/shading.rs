@@ -11,7 +11,7 @@ use crate::accel::{Accel, Ray};
 use crate::bsdf::microfacet::Frame;
 use crate::emitters::{group_point, SampledLight};
 use crate::interaction::{pane_transmittance, reflect, transmittance, SurfacePoint};
-use crate::mesh::RadiosityMesh;
+use crate::mesh::{Interp, RadiosityMesh};
 use crate::sampling::{derive, stratum, uniform2, Stream};
 use crate::scene::{Bsdf, BsdfKind, Glossy, Rgb, Scene};
 use crate::selection::{Pick, Selection};
@@ -199,7 +199,7 @@ impl<'a> Tracer<'a> {
                     // vertices, plus the ray-traced sources of the patch.
                     let interp = mesh.locate(self.scene, &hit, sp.p, sp.front);
                     let patch = mesh.vertices[interp.vertices[0] as usize].patch;
-                    let textured = texture_ratio(bsdf, &kind, mesh.albedo_at(&interp));
+                    let textured = texture_ratio(bsdf, &kind, mesh, &interp);
                     let mut sum = match (&self.gather, depth) {
                         // The paper's last step: the gather replaces the general
                         // radiosity but its caustic part (see `gather` for the one
@@ -525,7 +525,7 @@ impl<'a> Tracer<'a> {
         let mut l = Vec3::ZERO;
         if kind.has_diffuse() {
             let interp = mesh.locate(self.scene, &hit, sp.p, sp.front);
-            let textured = texture_ratio(bsdf, &kind, mesh.albedo_at(&interp));
+            let textured = texture_ratio(bsdf, &kind, mesh, &interp);
             l += interp.apply(total) * textured * std::f32::consts::FRAC_1_PI;
         }
         if depth < self.max_depth {
@@ -677,10 +677,14 @@ fn power_heuristic(a: f32, b: f32) -> f32 {
     }
 }
 
-fn texture_ratio(bsdf: &Bsdf, kind: &BsdfKind, mean: Rgb) -> Rgb {
+/// What the radiosity `interp` reads from `mesh` is scaled by at a hit on `bsdf`
+/// (of model `kind` there): its texel over the albedo the vertices interpolate to
+/// (1 for an untextured material, which pays no lookup).
+fn texture_ratio(bsdf: &Bsdf, kind: &BsdfKind, mesh: &RadiosityMesh, interp: &Interp) -> Rgb {
     if bsdf.textures.is_empty() {
         return Vec3::ONE;
     }
+    let mean = mesh.albedo_at(interp);
     Vec3::select(
         mean.cmpgt(Vec3::ZERO),
         kind.diffuse_albedo() / mean.max(Vec3::splat(f32::MIN_POSITIVE)),
