@@ -249,6 +249,14 @@ pub fn shadow_ray(p: Vec3, n: Vec3, q: Vec3, q_normal: Option<Vec3>) -> Ray {
     }
 }
 
+/// Two faces of thick glass whose normals part by less than this (as a cosine) are
+/// parallel: light that crosses the glass between them leaves it in the direction it
+/// came (a window pane, the wall of a bulb or a bottle), so shadow rays cross there
+/// unbent ([`transmittance`]) and photons that leave by such a face are still the
+/// light the shots deliver. A ray leaves a 5.7-degree wedge of glass turned by about
+/// 3 degrees.
+pub const PARALLEL_FACES: f32 = 0.995;
+
 /// The share of light that arrives along shadow ray `ray`: 0 if a surface that stops
 /// shadow rays lies on it ([`Accel::occluded`]), else [`pane_transmittance`]: the one
 /// visibility query of both passes.
@@ -260,50 +268,48 @@ pub fn transmittance(scene: &Scene, accel: &dyn Accel, ray: &Ray) -> f32 {
     }
 }
 
-/// [`transmittance`] for light that glass lets through (the sky's shot in pass 1,
-/// through the windows): thick glass passes the shadow ray on too, unbent, each face
-/// dimmed by its Fresnel transmittance at the ray's angle
-/// ([`BsdfKind::straight_transmittance`]: exact for the two parallel faces of a
-/// window pane; a glass object's focusing is left out); thin panes and masks as
-/// [`pane_transmittance`]. `thick`: whether the scene has thick glass
-/// ([`Scene::has_thick_glass`]); without, this is [`transmittance`]. (Mitsuba's path
-/// tracer finds that light by rays that refract through the pane and meet the sky;
-/// with shadow rays stopped there, a room behind a `dielectric` window pane under a
-/// sky got no light at all.)
-pub fn glass_transmittance(scene: &Scene, accel: &dyn Accel, ray: &Ray, thick: bool) -> f32 {
-    if !thick {
-        return transmittance(scene, accel, ray);
-    }
-    passed(scene, accel, ray, |kind, cos| kind.straight_transmittance(cos))
-}
-
-/// The product of the transmittances of the thin panes of glass shadow ray `ray`
-/// crosses (1 if none; the panes are traced alone, [`Accel::panes`]). Kept apart from
-/// the occlusion, which the shadow image buffer reuses, so that a reused "lit" is
-/// dimmed by the panes as a cast one is.
+/// The share of light glass and masks let through along shadow ray `ray` (1 if it
+/// meets none; those surfaces are traced alone, [`Accel::panes`]): the product of
+/// each face's transmittance at the ray's angle, unbent
+/// ([`BsdfKind::straight_transmittance`]). A thin pane only dims. Thick glass is
+/// crossed only between parallel faces ([`PARALLEL_FACES`]: exact for a window pane,
+/// whose faces leave the ray's direction as it was; a solid glass object's focusing
+/// is the photons' part, and stops the ray here). Mitsuba's path tracer finds the
+/// light of an area light or a sky behind a pane by rays that refract through it,
+/// to the same value; a point, spot or directional light it cannot find that way,
+/// and leaves a room behind a `dielectric` pane dark where the sun would light it.
+/// Kept apart from the occlusion, which the shadow image buffer reuses, so that a
+/// reused "lit" is dimmed as a cast one is.
 pub fn pane_transmittance(scene: &Scene, accel: &dyn Accel, ray: &Ray) -> f32 {
-    match accel.panes() {
-        Some(panes) => passed(scene, panes, ray, |kind, cos| kind.shadow_transmittance(cos)),
-        None => 1.0,
-    }
-}
-
-/// The share of light `ray` carries past every surface of `accel` it meets: each
-/// passes `pass(material, cos)` of it (`None`: none, unless masked) times the share
-/// a `mask` leaves open there.
-fn passed(scene: &Scene, accel: &dyn Accel, ray: &Ray, pass: impl Fn(&BsdfKind, f32) -> Option<f32>) -> f32 {
+    let Some(panes) = accel.panes() else {
+        return 1.0;
+    };
     let mut r = *ray;
     let mut share = 1.0;
+    // Inside thick glass: the normal of the face the ray entered by.
+    let mut entered: Option<Vec3> = None;
     // Such surfaces are few along a ray; a bound keeps a degenerate stack finite.
     for _ in 0..64 {
-        let Some(hit) = accel.intersect(&r) else {
+        let Some(hit) = panes.intersect(&r) else {
             break;
         };
         let sp = SurfacePoint::new(scene, &r, &hit);
         let cos = sp.ng.dot(r.dir) / r.dir.length();
         let bsdf = &scene.bsdfs[scene.shapes[hit.shape as usize].bsdf as usize];
+        if bsdf.kind.is_thick_glass() {
+            if let Some(n) = entered.take() {
+                if n.dot(sp.ng).abs() < PARALLEL_FACES {
+                    return 0.0;
+                }
+            } else {
+                entered = Some(sp.ng);
+            }
+        }
         let masked = bsdf.masked();
-        let through = pass(&bsdf.kind, cos).unwrap_or(if masked { 1.0 } else { 0.0 });
+        let through = bsdf
+            .kind
+            .straight_transmittance(cos)
+            .unwrap_or(if masked { 1.0 } else { 0.0 });
         let open = if masked {
             1.0 - sp.opacity(scene, bsdf)
         } else {

@@ -204,6 +204,12 @@ impl BsdfKind {
         matches!(self, BsdfKind::Dielectric { .. })
     }
 
+    /// Whether the material is thick glass (`dielectric`, `roughdielectric`): a
+    /// surface of a solid whose inside is glass.
+    pub fn is_thick_glass(&self) -> bool {
+        matches!(self, BsdfKind::Dielectric { thin: false, .. })
+    }
+
     /// Whether shadow rays pass through the material (a thin pane), and with what
     /// share of the light at cosine `cos` to its normal; `None` if it stops them.
     pub fn shadow_transmittance(&self, cos: f32) -> Option<f32> {

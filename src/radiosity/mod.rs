@@ -315,7 +315,6 @@ fn solve_inner(
         scene,
         accel,
         settings,
-        thick_glass: scene.has_thick_glass(),
         general: vec![Vec3::ZERO; nv],
         caustic: Vec::new(),
         unshot: vec![Vec3::ZERO; nv],
@@ -467,9 +466,6 @@ struct Solver<'a> {
     scene: &'a Scene,
     accel: &'a dyn Accel,
     settings: &'a SolveSettings,
-    /// Whether the scene has thick glass, which the sky's shot passes
-    /// ([`crate::interaction::glass_transmittance`]).
-    thick_glass: bool,
     mesh: RadiosityMesh,
     general: Vec<Rgb>,
     /// See [`Solution::caustic`].

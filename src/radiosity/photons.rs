@@ -21,7 +21,7 @@ use rayon::prelude::*;
 
 use crate::accel::{Accel, Ray};
 use crate::emitters::{Emission, SampledLight};
-use crate::interaction::{offset_from, reflect, SurfacePoint};
+use crate::interaction::{offset_from, reflect, SurfacePoint, PARALLEL_FACES};
 use crate::mesh::{point_in_polygon, Piece, RadiosityMesh};
 use crate::sampling::{cone_direction, cosine_direction, shot_seed, sphere_cone, uniform3, Alias};
 use crate::scene::{mean, Glossy, Rgb, Scene};
@@ -202,6 +202,9 @@ impl<'a> Tracer<'a> {
         let mut first = start != Start::Patch;
         // Still on a light -> mirror(s) path.
         let mut caustic = start == Start::Light;
+        // Inside thick glass: the face it entered by and the state before, while the
+        // photon may still leave as it came (`None` once reflected inside).
+        let mut inside: Option<Option<(Vec3, bool, Option<SourceId>)>> = None;
         for _ in 0..MAX_BOUNCES {
             let ray = Ray {
                 origin: if normal == Vec3::ZERO {
@@ -236,31 +239,46 @@ impl<'a> Tracer<'a> {
                 // Glass: reflected or transmitted by their shares of the power.
                 let (pr, pt) = (mean(g.reflect).min(1.0), mean(g.power).min(1.0));
                 let [u, _, _] = next();
-                let thin = matches!(bsdf.kind, crate::scene::BsdfKind::Dielectric { thin: true, .. });
+                let thick = bsdf.kind.is_thick_glass();
+                // Shadow rays cross thin panes, and thick glass between parallel
+                // faces (`pane_transmittance`): a photon that crosses them so is
+                // still what the shots deliver, as it was before.
+                let mut crossed = false;
                 if u < pr {
                     power *= g.reflect / pr;
                     dir = reflect(dir, sp.ns);
                     if !reflects(dir, sp.ng) {
                         return;
                     }
+                    // Reflected inside, it leaves by another way.
+                    inside = inside.map(|_| None);
                 } else if u < pr + pt {
                     power *= g.power / pt;
                     dir = g.dir;
                     if dir.dot(sp.ng) >= 0.0 {
                         return;
                     }
-                    if thin {
-                        // Shadow rays cross thin panes too: the photon goes on as if
-                        // the pane were not there (what the shots deliver they keep).
-                        origin = sp.p;
-                        normal = sp.ng;
-                        continue;
+                    crossed = !thick;
+                    if thick {
+                        match inside.take() {
+                            None => inside = Some(Some((sp.ng, first, source))),
+                            Some(entry) => {
+                                if let Some((_, f, s)) =
+                                    entry.filter(|e| e.0.dot(sp.ng).abs() >= PARALLEL_FACES)
+                                {
+                                    (first, source) = (f, s);
+                                    crossed = true;
+                                }
+                            }
+                        }
                     }
                 } else {
                     return;
                 }
-                first = false;
-                source = None;
+                if !crossed {
+                    first = false;
+                    source = None;
+                }
                 origin = sp.p;
                 normal = sp.ng;
                 continue;
@@ -420,9 +438,7 @@ impl Aim {
                             };
                             let power = f64::from(mean(e.power));
                             sent += power;
-                            if meets_a_mirror(scene, accel, &e) {
-                                met += power;
-                            }
+                            met += power * mirror_share(scene, accel, &e);
                         }
                         (met / f64::from(n), sent / f64::from(n))
                     })
@@ -460,7 +476,7 @@ impl Aim {
         // The groups' cones overlap, so the pairs' figures do not add up: a pilot of
         // photons drawn as the tracer draws them finds the power that meets mirrors
         // and the share of photons that count.
-        let (mut met, mut hits) = (0.0f64, 0u32);
+        let (mut met, mut hits) = (0.0f64, 0.0f64);
         for i in 0..AIM_PILOT {
             let mut k = 4 * i;
             let mut next = || {
@@ -468,14 +484,13 @@ impl Aim {
                 uniform3(AIM_PILOT_SEED, k - 1)
             };
             if let Some((e, prob)) = aim.emit(lights, &mut next) {
-                if meets_a_mirror(scene, accel, &e) {
-                    met += f64::from(mean(e.power)) / prob;
-                    hits += 1;
-                }
+                let share = mirror_share(scene, accel, &e);
+                met += f64::from(mean(e.power)) / prob * share;
+                hits += share;
             }
         }
         aim.met = met / f64::from(AIM_PILOT);
-        aim.success = f64::from(hits) / f64::from(AIM_PILOT);
+        aim.success = hits / f64::from(AIM_PILOT);
         aim
     }
 
@@ -539,14 +554,27 @@ const AIM_PILOT: u32 = 4096;
 /// Their seed (any fixed one: the pilot only shares the photons out).
 const AIM_PILOT_SEED: u32 = 0x41_494d;
 
-/// Whether light leaving as `e` meets a surface that reflects like a mirror first.
-fn meets_a_mirror(scene: &Scene, accel: &dyn Accel, e: &Emission) -> bool {
-    accel
-        .intersect(&crate::interaction::emission_ray(e))
-        .is_some_and(|h| {
-            let shape = &scene.shapes[h.shape as usize];
-            scene.bsdfs[shape.bsdf as usize].kind.has_mirror()
-        })
+/// The share of light leaving as `e` that the surface it meets first passes on as a
+/// mirror does, which the deterministic shots cannot: all of it on a mirror or
+/// glossy metal, none on a diffuse surface. Glass passes on what it reflects, and
+/// what it bends (a solid glass object's caustic); what crosses it between parallel
+/// faces (a window pane, a bulb's wall) is the shots' light
+/// ([`crate::interaction::pane_transmittance`]).
+fn mirror_share(scene: &Scene, accel: &dyn Accel, e: &Emission) -> f64 {
+    let ray = crate::interaction::emission_ray(e);
+    let Some(h) = accel.intersect(&ray) else {
+        return 0.0;
+    };
+    let kind = &scene.bsdfs[scene.shapes[h.shape as usize].bsdf as usize].kind;
+    if !kind.has_mirror() {
+        return 0.0;
+    }
+    if !kind.is_glass() || crate::interaction::pane_transmittance(scene, accel, &ray) == 0.0 {
+        return 1.0;
+    }
+    let sp = SurfacePoint::new(scene, &ray, &h);
+    let cos = sp.ng.dot(ray.dir).abs() / ray.dir.length();
+    f64::from(mean(kind.mirror(cos)).clamp(0.0, 1.0))
 }
 
 /// A cone of directions: its unit axis and solid angle (see [`sphere_cone`]).

@@ -8,7 +8,7 @@ use glam::Vec3;
 use super::{transfer, AtVertex, Solver};
 use crate::emitters::SampledLight;
 use crate::geometry::point_polygon_form_factor;
-use crate::interaction::{glass_transmittance, ray_epsilon, shadow_ray, transmittance};
+use crate::interaction::{ray_epsilon, shadow_ray, transmittance};
 use crate::mesh::{point_in_polygon, MeshVertex};
 use crate::sampling::stratum;
 use crate::scene::{mean, Rgb};
@@ -348,12 +348,7 @@ impl Solver<'_> {
                 };
                 weights += w;
                 let ray = shadow_ray(x, n, target, normal);
-                // The sky's light comes through thick glass too (a window pane).
-                let t = if sp.far {
-                    glass_transmittance(self.scene, self.accel, &ray, self.thick_glass)
-                } else {
-                    transmittance(self.scene, self.accel, &ray)
-                };
+                let t = transmittance(self.scene, self.accel, &ray);
                 if t > 0.0 {
                     hits += 1;
                     light += t * w;

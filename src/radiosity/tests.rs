@@ -1156,3 +1156,96 @@ fn an_open_floor_under_a_uniform_sky_gets_pi_l() {
     }
     assert!(open > 10 && near > 4, "{open} {near}");
 }
+
+/// The floor vertex nearest the origin of a 4 x 4 m floor at height 0 that `s`
+/// holds as its shape 0, and its total radiosity.
+fn floor_centre(sol: &Solution) -> Vec3 {
+    let total = sol.total();
+    let (i, _) = sol
+        .mesh
+        .vertices
+        .iter()
+        .enumerate()
+        .filter(|(_, vx)| vx.q.z == 0.0 && vx.n.z > 0.0)
+        .min_by(|a, b| a.1.q.truncate().length().total_cmp(&b.1.q.truncate().length()))
+        .unwrap();
+    total[i]
+}
+
+/// A floor of reflectance rho with shapes of thick glass (index 1.5) over it, lit
+/// by `light`.
+fn floor_under_glass(glass: Vec<TriMesh>, light: Light) -> Scene {
+    use crate::scene::BsdfKind;
+    let mut plane = crate::testutil::split_square(4.0, 0.0, 16);
+    for p in &mut plane.positions {
+        *p -= Vec3::new(2.0, 2.0, 0.0);
+    }
+    let mut shapes = vec![(
+        plane,
+        BsdfKind::Diffuse {
+            reflectance: Vec3::splat(0.5),
+        },
+    )];
+    shapes.extend(glass.into_iter().map(|f| (f, BsdfKind::clear_glass(1.5, false))));
+    crate::testutil::scene_with(shapes, vec![light], &[])
+}
+
+/// A lamp (a point light of intensity I, 1 m over the floor) in a glass bulb (a
+/// box of `dielectric` with walls 1 cm thick): the floor below gets I / h^2 through
+/// the bottom wall's two parallel faces, (1 - F)^2 = 0.96^2 of it, from the lamp's
+/// shot, and the photons add only the light the bulb's faces reflect inside and
+/// let out elsewhere (a few per cent), not the light that crossed straight again.
+/// (Shadow rays stopped at the bulb left that light to the photons alone.)
+#[test]
+fn a_lamp_in_a_glass_bulb_lights_the_floor_through_its_walls_once() {
+    let (i, h, rho) = (5.0f32, 1.0f32, 0.5f32);
+    let mut bulb = box_outside(v(-0.06, -0.06, h - 0.06), v(0.06, 0.06, h + 0.06));
+    bulb.extend(box_inside(v(-0.05, -0.05, h - 0.05), v(0.05, 0.05, h + 0.05)));
+    let lamp = Light::Point {
+        position: v(0.0, 0.0, h),
+        intensity: Vec3::splat(i),
+    };
+    let s = floor_under_glass(bulb, lamp);
+    let mut set = settings(0.25, 64, 0);
+    (set.photons, set.max_photons) = (64, 400_000);
+    let sol = solve(&s, &Bvh::build(&s), &set, &Silent).unwrap();
+    let got = floor_centre(&sol).x;
+    let want = rho * i / (h * h) * 0.96 * 0.96;
+    assert!(got > 0.99 * want && got < 1.06 * want, "{got} vs {want}");
+}
+
+/// The sun (`directional`, irradiance E, 30 degrees from the zenith) over a floor
+/// under a slab of thick glass 2 cm thick: the floor gets E cos 30 through the two
+/// faces, each passing 1 - F(cos 30) (a window pane must not turn a sunlit room
+/// dark); tilt the slab's lower face by 10 degrees and the sun's straight path is
+/// gone (bent light is the photons' part, none here).
+#[test]
+fn the_sun_lights_a_floor_through_a_pane_of_thick_glass() {
+    use crate::bsdf::fresnel_dielectric;
+    let (e, rho) = (3.0f32, 0.5f32);
+    let c = 30f32.to_radians().cos();
+    let sun = Light::Directional {
+        direction: -v(30f32.to_radians().sin(), 0.0, c),
+        irradiance: Vec3::splat(e),
+    };
+    let pane = box_outside(v(-1.5, -1.5, 1.0), v(1.5, 1.5, 1.02));
+    let s = floor_under_glass(pane.clone(), sun.clone());
+    let sol = solve(&s, &Bvh::build(&s), &settings(0.25, 16, 0), &Silent).unwrap();
+    let got = floor_centre(&sol).x;
+    let want = rho * e * c * (1.0 - fresnel_dielectric(c, 1.5)).powi(2);
+    assert!((got - want).abs() < 0.01 * want, "{got} vs {want}");
+    // The wedge: the lower face (the box's face at z = 1, listed first) tilted
+    // about the x axis through its centre.
+    let mut wedge = pane;
+    let tilt = glam::Mat3::from_rotation_x(10f32.to_radians());
+    let low = wedge
+        .iter()
+        .position(|f| f.positions.iter().all(|p| p.z == 1.0))
+        .unwrap();
+    for p in &mut wedge[low].positions {
+        *p = tilt * (*p - v(0.0, 0.0, 1.0)) + v(0.0, 0.0, 1.0);
+    }
+    let s = floor_under_glass(wedge, sun);
+    let sol = solve(&s, &Bvh::build(&s), &settings(0.25, 16, 0), &Silent).unwrap();
+    assert!(floor_centre(&sol).x < 0.01 * want, "{}", floor_centre(&sol).x);
+}

@@ -151,8 +151,9 @@ mod tests {
     /// lit from the side below it: the floor through the slab is dimmed by the two
     /// faces' transmittances, (1 - r)^2 with r = 0.04 (the radiance's scaling by 1.5^2
     /// going in is undone coming out), plus the light bounced between the faces
-    /// (r^2 of that, within the tolerance). A shadow ray through the slab would be
-    /// stopped: thick glass casts a shadow.
+    /// (r^2 of that, within the tolerance). A shadow ray crosses the slab's parallel
+    /// faces unbent, dimmed by the same two faces; tilt one face by 10 degrees and
+    /// the light it would bend is the photons' part: a shadow.
     #[test]
     fn a_thick_slab_passes_the_floor_behind_it_by_its_two_faces() {
         let (x_l, h, i) = (3.0f32, 0.5f32, 10.0f32);
@@ -174,14 +175,24 @@ mod tests {
         let seen = look_down(&s, Vec3::new(0.0, 0.0, 2.0), 6);
         let expect = closed * 0.96 * 0.96;
         assert!((seen.x - expect).abs() < 3e-3 * expect, "{seen} vs {expect}");
-        // Under the slab, a light above it is hidden.
+        // Under the slab, a light 3 above the floor: lit through both faces at
+        // normal incidence.
         let above = Light::Point {
             position: Vec3::new(0.0, 0.0, 3.0),
             intensity: Vec3::splat(i),
         };
         let mut s2 = s.clone();
         s2.lights = vec![above];
-        assert_eq!(look_down(&s2, Vec3::new(0.0, 0.0, 0.5), 6), Vec3::ZERO);
+        let under = look_down(&s2, Vec3::new(0.0, 0.0, 0.5), 6);
+        let expect = 0.5 / PI * i / 9.0 * 0.96 * 0.96;
+        assert!((under.x - expect).abs() < 1e-4 * expect, "{under} vs {expect}");
+        // The lower face tilted by 10 degrees about the x axis: a wedge.
+        let tilt = glam::Mat3::from_rotation_x(10f32.to_radians());
+        let mut wedge = s2.clone();
+        for p in &mut wedge.shapes[2].mesh.positions {
+            *p = tilt * (*p - Vec3::new(0.0, 0.0, 1.0)) + Vec3::new(0.0, 0.0, 1.0);
+        }
+        assert_eq!(look_down(&wedge, Vec3::new(0.0, 0.0, 0.5), 6), Vec3::ZERO);
     }
 
     /// A mask of opacity 0.25 over a floor, both under a point light: the floor is

@@ -580,14 +580,18 @@ impl<'a> Tracer<'a> {
         } else {
             None
         };
+        let light_seed = derive(h.seed, Stream::Light(pick.source));
         if let Some(q) = sib.as_deref_mut().filter(|_| usable && n > 1) {
             if let Some(lit) = sib::agree(q.neighbours, pick.source, 0, n) {
                 let value = match (lit, closed) {
                     (false, _) => Some(Vec3::ZERO),
-                    // Through thin glass the groups' light points are dimmed each by
-                    // its panes: sampled below.
-                    (true, Some(c)) if self.accel.panes().is_none() => Some(c),
-                    (true, _) => None,
+                    (true, Some(c)) => Some(match self.accel.panes() {
+                        None => c,
+                        // Dimmed by the glass and masks on the way: a few of the
+                        // light's points stand for all.
+                        Some(_) => c * self.pane_share(light, sp, r.min(PANE_PROBES), n, light_seed),
+                    }),
+                    (true, None) => None,
                 };
                 if let Some(value) = value {
                     sib::set(q.record, pick.source, 0, n, lit);
@@ -596,7 +600,6 @@ impl<'a> Tracer<'a> {
                 }
             }
         }
-        let light_seed = derive(h.seed, Stream::Light(pick.source));
         let (mut acc, mut unoccluded) = (Vec3::ZERO, Vec3::ZERO);
         let (mut cast, mut saved) = (0, 0);
         for g in 0..r {
@@ -644,7 +647,33 @@ impl<'a> Tracer<'a> {
             _ => acc,
         }
     }
+
+    /// The mean share of the light glass and masks let through from `k` points of
+    /// `light` (one in each of `k` groups of its `n` sub-sources) to `sp`, for light
+    /// the shadow image buffer found unoccluded: the panes' dimming varies little
+    /// across a light, and tracing them for every light point cost the staircase 9 %
+    /// of its render.
+    fn pane_share(&self, light: &SampledLight, sp: &SurfacePoint, k: u32, n: u32, seed: u32) -> f32 {
+        let (mut sum, mut count) = (0.0, 0u32);
+        for g in 0..k {
+            let (_, _, uv) = group_point(g, k, n, seed);
+            let Some(s) = light.sample(sp.p, uv) else { continue };
+            if sp.ns.dot(s.dir) > 0.0 && sp.ng.dot(s.dir) > 0.0 {
+                sum += pane_transmittance(self.scene, self.accel, &sp.shadow_ray(s.point, s.normal));
+                count += 1;
+            }
+        }
+        if count > 0 {
+            sum / count as f32
+        } else {
+            1.0
+        }
+    }
 }
+
+/// Light points whose panes stand for the rest where the shadow image buffer finds
+/// an area light wholly visible ([`Tracer::pane_share`]).
+const PANE_PROBES: u32 = 4;
 
 /// What the direct light at one diffuse hit is computed for.
 struct Shade<'s> {

@@ -534,24 +534,16 @@ impl Scene {
             .map_or(Vec3::ZERO, |(_, l)| l.environment_radiance(dir, &self.textures))
     }
 
-    /// Whether some shape's material is thick glass (`dielectric`,
-    /// `roughdielectric`).
-    pub fn has_thick_glass(&self) -> bool {
-        self.shapes.iter().any(|shape| {
-            self.bsdfs
-                .get(shape.bsdf as usize)
-                .is_some_and(|b| matches!(b.kind, BsdfKind::Dielectric { thin: false, .. }))
-        })
-    }
-
-    /// Whether shadow rays pass through shape `s` (a thin pane of glass,
-    /// `thindielectric`: light crosses it unbent, so its shadow is only a dimming; or
-    /// a `mask`ed surface, where it is not opaque).
+    /// Whether shadow rays may pass through shape `s`: glass (a thin pane,
+    /// `thindielectric`, which light crosses unbent, so its shadow is only a dimming;
+    /// thick glass where its faces are parallel, as a window pane's), or a `mask`ed
+    /// surface, where it is not opaque. How much passes is
+    /// [`crate::interaction::pane_transmittance`]'s.
     pub fn passes_shadows(&self, s: u32) -> bool {
         self.shapes
             .get(s as usize)
             .and_then(|shape| self.bsdfs.get(shape.bsdf as usize))
-            .is_some_and(|b| matches!(b.kind, BsdfKind::Dielectric { thin: true, .. }) || b.masked())
+            .is_some_and(|b| b.kind.is_glass() || b.masked())
     }
 
     /// A name for light `i` in tables and messages: its `id` in the scene file, the
