@@ -17,7 +17,11 @@ use crate::Result;
 /// Maximum depth of nested `<include>`s.
 const MAX_INCLUDE_DEPTH: usize = 16;
 
-/// Integrators whose presence is normal in a Mitsuba scene: accepted silently.
+/// Integrators whose presence is normal in a Mitsuba scene: accepted silently. They
+/// render the scene's light transport (Mitsuba 3's, and Mitsuba 0.6's global
+/// illumination methods, `sppm` and the rest, with `adaptive` and `irrcache`, which
+/// wrap one of them), the picture radtrace renders with its own method; those that
+/// render something else (`aov`, `depth`, `ao`, ...) are warned about.
 const KNOWN_INTEGRATORS: &[&str] = &[
     "path",
     "direct",
@@ -28,6 +32,17 @@ const KNOWN_INTEGRATORS: &[&str] = &[
     "direct_projective",
     "prb_projective",
     "ptracer",
+    "volpath_simple",
+    "bdpt",
+    "pssmlt",
+    "mlt",
+    "erpt",
+    "photonmapper",
+    "ppm",
+    "sppm",
+    "vpl",
+    "adaptive",
+    "irrcache",
 ];
 
 /// Where a node is: one file and its parsed document.
@@ -301,7 +316,12 @@ impl Loader {
             "bsdf" => {
                 self.bsdf(s, c)?;
                 if c.attribute("id").is_none() {
-                    self.warn(s, c, "a top-level <bsdf> without an id cannot be used; ignored");
+                    // Mitsuba loads it too, silently, and nothing can use it.
+                    self.notes.push(format!(
+                        "{}:{}: a top-level <bsdf> without an id is used by nothing (as in Mitsuba)",
+                        s.path.display(),
+                        s.pos(c)
+                    ));
                 }
                 Ok(())
             }
