@@ -24,6 +24,10 @@ pub struct SurfacePoint {
     pub tri: u32,
     /// Barycentrics of corners 1 and 2.
     pub bary: Vec2,
+    /// Width in surface parameters (u, v) of the camera ray's footprint here, which
+    /// mipmapped textures are read over ([`SurfacePoint::with_footprint`]); 0 for a
+    /// point (every other ray).
+    pub footprint: f32,
 }
 
 impl SurfacePoint {
@@ -67,6 +71,7 @@ impl SurfacePoint {
             shape: hit.shape,
             tri: hit.tri,
             bary: hit.bary,
+            footprint: 0.0,
         }
     }
 
@@ -77,15 +82,37 @@ impl SurfacePoint {
     }
 
     /// The material here: the shape's BSDF, and its reflection model with its
-    /// textures looked up at this point's (u, v) (the model itself when untextured).
+    /// textures looked up at this point's (u, v) (the model itself when untextured),
+    /// over its footprint.
     pub fn material<'s>(&self, scene: &'s Scene) -> (&'s Bsdf, Cow<'s, BsdfKind>) {
         let bsdf = &scene.bsdfs[scene.shapes[self.shape as usize].bsdf as usize];
         let kind = if bsdf.textures.is_empty() {
             Cow::Borrowed(&bsdf.kind)
         } else {
-            bsdf.kind_at(self.uv(scene), &scene.textures)
+            bsdf.kind_at(self.uv(scene), self.footprint, &scene.textures)
         };
         (bsdf, kind)
+    }
+
+    /// This point seen by a camera ray whose footprint is `width` wide here (scene
+    /// units, across the ray): its footprint in (u, v), by the triangle's (u, v) area
+    /// over its area (isotropic: the width across the ray, not its stretch along a
+    /// surface seen at a slant, which would blur a floor seen far off). Meshes
+    /// without (u, v) and exact spheres and disks keep a point.
+    pub fn with_footprint(mut self, scene: &Scene, width: f32) -> Self {
+        let mesh = &scene.shapes[self.shape as usize].mesh;
+        if mesh.quadric.is_some() || mesh.uvs.is_empty() || !(width > 0.0) {
+            return self;
+        }
+        let [a, b, c] = mesh.triangle(self.tri as usize);
+        let [i, j, k] = mesh.indices[self.tri as usize].map(|i| i as usize);
+        let uv = |i: usize| mesh.uvs.get(i).copied().unwrap_or_default();
+        let area = (b - a).cross(c - a).length();
+        let uv_area = (uv(j) - uv(i)).perp_dot(uv(k) - uv(i)).abs();
+        if area > 0.0 && uv_area.is_finite() {
+            self.footprint = width * (uv_area / area).sqrt();
+        }
+        self
     }
 
     /// This point with its shading normal tilted by the material's bump or normal
@@ -385,6 +412,41 @@ mod tests {
     /// over the unit square: gradient 0.4 per unit u) tilts a floor's normal to
     /// (-0.4, 0, 1), Mitsuba's formula for a flat surface; a normal map gives its own
     /// normal in the frame (u, v, n); both keep the side the ray came from.
+    #[test]
+    fn a_camera_footprint_is_measured_in_the_triangles_uv() {
+        // A 4 x 2 rectangle whose (u, v) run over [0, 1] x [0, 1]: 1/8 of (u, v)'s
+        // area per unit of area, so a footprint w wide is w / sqrt(8) in (u, v).
+        let mut m = crate::testutil::square(0.0, 4.0, 0.0, 2.0, 0.0, false);
+        m.uvs = m
+            .positions
+            .iter()
+            .map(|p| Vec2::new(p.x / 4.0, p.y / 2.0))
+            .collect();
+        let bare = crate::testutil::square(0.0, 4.0, 0.0, 2.0, 0.0, false);
+        let diffuse = BsdfKind::Diffuse {
+            reflectance: Vec3::splat(0.5),
+        };
+        let s = crate::testutil::scene_with(vec![(m, diffuse.clone()), (bare, diffuse)], vec![], &[]);
+        let ray = Ray::new(Vec3::new(1.0, 1.0, 1.0), -Vec3::Z);
+        let hit = |shape| Hit {
+            t: 1.0,
+            shape,
+            tri: 0,
+            bary: Vec2::new(0.2, 0.3),
+        };
+        let sp = SurfacePoint::new(&s, &ray, &hit(0));
+        assert_eq!(sp.footprint, 0.0);
+        let f = sp.with_footprint(&s, 0.02).footprint;
+        assert!((f - 0.02 / 8f32.sqrt()).abs() < 1e-7, "{f}");
+        // Without (u, v): a point.
+        assert_eq!(
+            SurfacePoint::new(&s, &ray, &hit(1))
+                .with_footprint(&s, 0.02)
+                .footprint,
+            0.0
+        );
+    }
+
     #[test]
     fn bump_and_normal_maps_tilt_the_shading_normal() {
         use crate::accel::Accel;

@@ -187,7 +187,7 @@ impl RadiosityMesh {
             if !(opacity > 0.0) {
                 continue;
             }
-            let rho = bsdf.kind_at(uv, &scene.textures).diffuse_albedo();
+            let rho = bsdf.kind_at(uv, 0.0, &scene.textures).diffuse_albedo();
             let p = self.patch_of(scene, &h);
             let w = self.locate_on(scene, p, &h, at(bary));
             for k in 0..4 {
@@ -256,7 +256,7 @@ pub fn mean_albedo(
             } else {
                 1.0
             };
-            tri_sum += bsdf.kind_at(at, textures).diffuse_albedo() * opacity;
+            tri_sum += bsdf.kind_at(at, 0.0, textures).diffuse_albedo() * opacity;
             tri_present += opacity;
         });
         let per = area / f64::from(k * k);

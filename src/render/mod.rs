@@ -149,6 +149,7 @@ pub fn render(
     };
     let sensor = scene.sensor(settings.view)?;
     let camera = Camera::new(sensor, settings.width, settings.height);
+    tracer.set_pixel_angle(1.0 / camera.pixels_per_radian());
     let start = Instant::now();
     let mut first = Counters::with_sources(tracer.source_count());
     if let (true, Some(sel)) = (settings.gather > 0, selection) {

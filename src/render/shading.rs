@@ -45,6 +45,9 @@ pub struct Tracer<'a> {
     /// Per mesh vertex, the solution's total radiosity (what rays drawn from a glossy
     /// lobe or rough glass read where they land), with a solution.
     total: Option<Vec<Rgb>>,
+    /// The angle a pixel spans seen from the eye (radians; 0: unknown): camera rays'
+    /// footprints, over which mipmapped textures are read.
+    pixel_angle: f32,
 }
 
 impl<'a> Tracer<'a> {
@@ -70,6 +73,7 @@ impl<'a> Tracer<'a> {
             diffuse: Diffuse::Direct(picks),
             gather: None,
             total: None,
+            pixel_angle: 0.0,
         }
     }
 
@@ -97,12 +101,19 @@ impl<'a> Tracer<'a> {
                 .iter()
                 .any(|b| b.kind.glossy().is_some() || b.kind.is_rough_glass())
                 .then(|| selection.solution.total()),
+            pixel_angle: 0.0,
         }
     }
 
     /// Gathers at first diffuse hits with `gather` (see [`gather`]).
     pub fn set_gather(&mut self, gather: Gather) {
         self.gather = Some(gather);
+    }
+
+    /// Camera rays (depth 0) span `angle` radians a pixel: their hits read mipmapped
+    /// textures over that footprint.
+    pub fn set_pixel_angle(&mut self, angle: f32) {
+        self.pixel_angle = angle;
     }
 
     /// Number of ray-traced sources (the length of [`Counters::sources`]).
@@ -145,7 +156,10 @@ impl<'a> Tracer<'a> {
         if let Some(q) = sib.as_deref_mut() {
             q.object = hit.shape;
         }
-        let sp = SurfacePoint::new(self.scene, ray, &hit);
+        let mut sp = SurfacePoint::new(self.scene, ray, &hit);
+        if depth == 0 && self.pixel_angle > 0.0 {
+            sp = sp.with_footprint(self.scene, hit.t * ray.dir.length() * self.pixel_angle);
+        }
         let shape = &self.scene.shapes[hit.shape as usize];
         let mut l = Vec3::ZERO;
         if sp.front && emit {

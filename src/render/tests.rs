@@ -834,3 +834,77 @@ fn a_rough_plastic_floor_reflects_a_point_light_by_its_lobe_and_its_base() {
         assert_eq!(c.shadow_rays, 2);
     }
 }
+
+/// A floor far below the camera with a checker of one-texel squares, many texels
+/// to a pixel, under the sun (`direct`, one sample a pixel): read from its mipmap
+/// over the camera rays' footprints (Mitsuba 0.6's `trilinear`), every pixel shows
+/// the checker's mean, rho E / pi (its levels past the first are that mean); read
+/// bilinearly, each pixel shows whichever texels its one sample meets.
+#[test]
+fn a_mipmapped_texture_far_off_shows_its_mean_in_every_pixel() {
+    use crate::scene::texture::TexFilter;
+    use crate::scene::{BsdfKind, Light, TexField, TexSlot, Texture};
+    let mut floor = crate::testutil::square(-50.0, 50.0, -50.0, 50.0, 0.0, false);
+    floor.uvs = floor
+        .positions
+        .iter()
+        .map(|p| p.truncate() / 100.0 + 0.5)
+        .collect();
+    let e = 2.0f32;
+    let mut s = crate::testutil::scene_with(
+        vec![(
+            floor,
+            BsdfKind::Diffuse {
+                reflectance: Vec3::ONE,
+            },
+        )],
+        vec![Light::Directional {
+            direction: -Vec3::Z,
+            irradiance: Vec3::splat(e),
+        }],
+        &[],
+    );
+    let texels = (0..64 * 64)
+        .map(|k| {
+            if (k % 64 + k / 64) % 2 == 0 {
+                [0.8; 3]
+            } else {
+                [0.2; 3]
+            }
+        })
+        .collect();
+    let mut t = Texture::from_linear("checker", 64, 64, texels).unwrap();
+    // 80 repeats: 5,120 texels over the floor's 100 m, about 30 to a pixel.
+    t.to_uv = glam::Affine2::from_scale(glam::Vec2::splat(80.0));
+    s.textures.push(t);
+    s.bsdfs[0].textures.push(TexSlot {
+        path: Vec::new(),
+        field: TexField::Diffuse,
+        texture: 0,
+        factor: Vec3::ONE,
+    });
+    s.sensors.push(crate::testutil::looking(
+        Vec3::new(0.0, -1.0, 40.0),
+        Vec3::ZERO,
+        40.0,
+        48,
+        48,
+    ));
+    let want = 0.5 * e / std::f32::consts::PI;
+    let mut st = settings(Method::Direct);
+    st.spp = 1;
+    let spread = |s: &Scene| {
+        let img = draw(s, &Bvh::build(s), &st, None).image;
+        img.pixels
+            .iter()
+            .map(|p| (p.x / want - 1.0).abs())
+            .fold(0.0f32, f32::max)
+    };
+    s.textures[0].filter = TexFilter::Trilinear;
+    s.textures[0].build_mipmap();
+    let mipmapped = spread(&s);
+    assert!(mipmapped < 0.01, "{mipmapped}");
+    s.textures[0].filter = TexFilter::Bilinear;
+    let point = spread(&s);
+    assert!(point > 0.3, "{point}");
+}

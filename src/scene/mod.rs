@@ -256,8 +256,9 @@ impl Bsdf {
     }
 
     /// The reflection model at surface parameters `uv`: `kind` with its textured
-    /// parameters looked up there (`kind` itself when none is).
-    pub fn kind_at(&self, uv: Vec2, textures: &[Texture]) -> Cow<'_, BsdfKind> {
+    /// parameters looked up there, over a footprint `width` wide in (u, v) (0: a
+    /// point; [`Texture::eval_over`]), `kind` itself when none is textured.
+    pub fn kind_at(&self, uv: Vec2, width: f32, textures: &[Texture]) -> Cow<'_, BsdfKind> {
         if self.textures.is_empty() {
             return Cow::Borrowed(&self.kind);
         }
@@ -266,7 +267,7 @@ impl Bsdf {
             let Some(t) = textures.get(slot.texture as usize) else {
                 continue;
             };
-            let value = t.eval(uv) * slot.factor;
+            let value = t.eval_over(uv, width) * slot.factor;
             let mut k = &mut kind;
             for &b in &slot.path {
                 match k {

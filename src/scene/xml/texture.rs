@@ -198,14 +198,10 @@ impl Loader {
         let filter = match obj.string("filter_type")?.as_deref().unwrap_or("bilinear") {
             "bilinear" => TexFilter::Bilinear,
             "nearest" => TexFilter::Nearest,
-            // Mitsuba 0.6's mipmapped filters (its default was `ewa`), which Mitsuba 3
-            // no longer has: filtered bilinearly, with a warning.
-            f @ ("trilinear" | "ewa") if obj.src.legacy => {
-                let msg =
-                    format!("texture filter '{f}' (Mitsuba 0.6) read as 'bilinear': radtrace has no mipmaps");
-                self.warn(obj.src, obj.node, msg);
-                TexFilter::Bilinear
-            }
+            // Mitsuba 0.6's mipmapped filters (its default was `ewa`, anisotropic),
+            // which Mitsuba 3 no longer has: read from a mipmap over the camera
+            // rays' footprints.
+            "trilinear" | "ewa" if obj.src.legacy => TexFilter::Trilinear,
             f => return Err(obj.err_param("filter_type", format!("= '{f}' is not 'bilinear' or 'nearest'"))),
         };
         let wrap = match obj.string("wrap_mode")?.as_deref().unwrap_or("repeat") {
@@ -236,6 +232,9 @@ impl Loader {
                 } else {
                     let mut t = first.clone();
                     (t.filter, t.wrap, t.to_uv) = (filter, wrap, to_uv);
+                    if filter == TexFilter::Trilinear {
+                        t.build_mipmap();
+                    }
                     textures.push(t);
                     textures.len() as u32 - 1
                 }
@@ -244,6 +243,9 @@ impl Loader {
                 let mut t = Texture::load(&path, raw)
                     .map_err(|m| obj.err_param("filename", format!("= '{fname}': {m}")))?;
                 (t.filter, t.wrap, t.to_uv) = (filter, wrap, to_uv);
+                if filter == TexFilter::Trilinear {
+                    t.build_mipmap();
+                }
                 textures.push(t);
                 let i = textures.len() as u32 - 1;
                 self.images.insert(key, i);
