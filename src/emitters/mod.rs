@@ -17,6 +17,7 @@ use glam::{Vec2, Vec3};
 pub use infinite::{Sky, Sun};
 
 use crate::geometry::{point_polygon_form_factor, Quadric};
+use crate::sampling::{cone_direction, sphere_cone};
 use crate::scene::{mean, Light, Rgb, Scene};
 
 /// A point on a light source as seen from a receiver.
@@ -321,6 +322,9 @@ impl AreaEmitter {
     /// most [`CLOSED_FORM_TRIANGLES`] triangles; `None` for others (exact spheres and
     /// disks, radiant patches, whose radiance varies, and finely tessellated lights).
     pub fn unoccluded_irradiance(&self, p: Vec3, n: Vec3) -> Option<Rgb> {
+        if let Some(cap) = self.visible_sphere(p) {
+            return cap.irradiance(n).map(|e| self.radiance * e);
+        }
         if self.exact.is_some()
             || !self.corner_radiance.is_empty()
             || self.tris.is_empty()
@@ -409,10 +413,30 @@ impl AreaEmitter {
     }
 
     /// Uniform sample of the surface by area, mapped from `u` so that stratified `u`
-    /// gives well-spread points.
+    /// gives well-spread points. An exact sphere seen from outside is sampled
+    /// uniformly over the cone of directions it fills instead (pbrt's and Mitsuba's
+    /// rule): by area, half its points lay on its far side, hidden, and the
+    /// rest far from uniform in the solid angle, so one or a few rays per hit (what
+    /// the selection gives a small source far off) lit a floor in grains.
     fn sample(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
+        if let Some(s) = self.visible_sphere(p) {
+            return s.sample(p, u, self.radiance);
+        }
         let (point, normal, radiance) = self.point(u)?;
         self.light_sample(p, point, normal, radiance)
+    }
+
+    /// The sphere (emitting outwards) this emitter is, if `p` is outside it.
+    fn visible_sphere(&self, p: Vec3) -> Option<SphereCap> {
+        let q = self.exact.as_deref().filter(|q| !q.flipped)?;
+        let (centre, radius) = q.sphere()?;
+        let (axis, solid_angle) = sphere_cone(p, centre, radius)?;
+        Some(SphereCap {
+            centre,
+            radius,
+            axis,
+            solid_angle,
+        })
     }
 
     /// The surface point `u` maps to (uniform by area): the point, the unit normal
@@ -467,6 +491,59 @@ impl AreaEmitter {
             value: radiance * (cos_l * self.area / dist2),
             normal: Some(normal),
         })
+    }
+}
+
+/// The cone of directions from a point outside a sphere that the sphere fills.
+struct SphereCap {
+    centre: Vec3,
+    radius: f32,
+    /// Unit direction to the centre.
+    axis: Vec3,
+    solid_angle: f32,
+}
+
+impl SphereCap {
+    /// The point of the sphere seen from `p` along the direction `u` picks uniformly
+    /// in the cone; its value is the radiance times the cone's solid angle (the
+    /// inverse of the direction's density).
+    fn sample(&self, p: Vec3, u: Vec2, radiance: Rgb) -> Option<LightSample> {
+        let dir = cone_direction(self.axis, self.solid_angle, u);
+        // The nearer crossing of the sphere (a grazing direction: where it touches).
+        let oc = p - self.centre;
+        let b = oc.dot(dir);
+        let disc = (b * b - (oc.length_squared() - self.radius * self.radius)).max(0.0);
+        let dist = -b - disc.sqrt();
+        if !(dist > 0.0) {
+            return None;
+        }
+        let point = p + dir * dist;
+        Some(LightSample {
+            point,
+            dir,
+            dist,
+            value: radiance * self.solid_angle,
+            normal: Some((point - self.centre) / self.radius),
+        })
+    }
+
+    /// A sphere of unit radiance's irradiance at a surface of unit normal `n` where
+    /// it lies wholly above the surface's horizon: pi sin^2(alpha) cos(theta), alpha
+    /// the cone's half angle, theta the angle to its axis (Lambert); `None` where the
+    /// horizon cuts it, 0 where it is below.
+    fn irradiance(&self, n: Vec3) -> Option<f32> {
+        let cos_t = n.dot(self.axis);
+        let one_minus_cos_a = self.solid_angle / (2.0 * std::f32::consts::PI);
+        let cos_a = 1.0 - one_minus_cos_a;
+        let sin_a = (one_minus_cos_a * (2.0 - one_minus_cos_a)).max(0.0).sqrt();
+        // Wholly above: theta <= pi/2 - alpha, i.e. cos(theta) >= sin(alpha).
+        if cos_t >= sin_a {
+            Some(std::f32::consts::PI * (1.0 - cos_a * cos_a) * cos_t)
+        } else if cos_t <= -sin_a {
+            Some(0.0)
+        } else {
+            None
+        }
     }
 }
 
@@ -905,10 +982,32 @@ mod tests {
         let q = crate::geometry::shapes::sphere(Vec3::Y * 3.0, 0.5)
             .quadric
             .unwrap();
+        // A sphere of radius R at distance d wholly above the horizon: pi (R/d)^2
+        // cos(theta) (Lambert); cut by the horizon: no closed form; below it: 0.
+        let sphere = AreaEmitter::exact(q, Vec3::ONE);
+        let e = sphere.unoccluded_irradiance(Vec3::ZERO, Vec3::Y).unwrap().x;
+        let want = std::f32::consts::PI * (0.5f32 / 3.0).powi(2);
+        assert!((e / want - 1.0).abs() < 1e-4, "{e} vs {want}");
+        let tilted = Vec3::new(0.6, 0.8, 0.0);
+        let e = sphere.unoccluded_irradiance(Vec3::ZERO, tilted).unwrap().x;
+        assert!((e / (want * 0.8) - 1.0).abs() < 1e-4, "{e}");
+        assert_eq!(sphere.unoccluded_irradiance(Vec3::ZERO, Vec3::X), None);
         assert_eq!(
-            AreaEmitter::exact(q, Vec3::ONE).unoccluded_irradiance(Vec3::ZERO, Vec3::Y),
-            None
+            sphere.unoccluded_irradiance(Vec3::ZERO, -Vec3::Y),
+            Some(Vec3::ZERO)
         );
+        // Every sample of it seen from outside lands on its near side (its normal
+        // towards the point), carrying L times the cone's solid angle.
+        let omega = crate::sampling::sphere_cone(Vec3::ZERO, Vec3::Y * 3.0, 0.5)
+            .unwrap()
+            .1;
+        for k in 0..64 {
+            let u = Vec2::new((k % 8) as f32 / 8.0 + 0.06, (k / 8) as f32 / 8.0 + 0.06);
+            let s = sphere.sample(Vec3::ZERO, u).unwrap();
+            assert!(s.normal.unwrap().dot(-s.dir) > 0.0);
+            assert!(((s.point - Vec3::Y * 3.0).length() - 0.5).abs() < 1e-4);
+            assert!((s.value.x - omega).abs() < 1e-6);
+        }
     }
 
     #[test]

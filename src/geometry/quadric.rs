@@ -312,6 +312,18 @@ impl Quadric {
         }
     }
 
+    /// A sphere's centre and radius (under a similarity: the mean of its axes'
+    /// lengths); `None` for a disk.
+    pub fn sphere(&self) -> Option<(Vec3, f32)> {
+        if self.kind != QuadricKind::Sphere {
+            return None;
+        }
+        let m = self.world();
+        let r = (m.x_axis.truncate().length() + m.y_axis.truncate().length() + m.z_axis.truncate().length())
+            / 3.0;
+        Some((m.w_axis.truncate().as_vec3(), r as f32))
+    }
+
     /// Surface area (a sphere's under a similarity; a disk's under any affine map).
     pub fn area(&self) -> f32 {
         let m = self.world();
