@@ -462,6 +462,7 @@ fn the_repository_scenes_load_and_render_small() {
         ("scenes/paper-room/paper-room.xml", vec!["--view", "0"]),
         ("scenes/paper-room/paper-room.xml", vec!["--view", "1"]),
         ("scenes/hall/hall.xml", vec![]),
+        ("scenes/glass-bulb/glass-bulb.xml", vec![]),
     ] {
         let out = d.path().join("r.exr");
         let (scene_path, outs) = (repo(scene), s(&out));
