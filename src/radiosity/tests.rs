@@ -1074,16 +1074,7 @@ fn the_sky_reaches_a_floor_through_a_slab_of_thick_glass() {
     };
     let s = crate::testutil::scene_with(shapes, vec![sky], &[]);
     let sol = solve(&s, &Bvh::build(&s), &settings(0.5, 64, 0), &Silent).unwrap();
-    let total = sol.total();
-    let (i, _) = sol
-        .mesh
-        .vertices
-        .iter()
-        .enumerate()
-        .filter(|(_, vx)| vx.q.z == 0.0 && vx.n.z > 0.0)
-        .min_by(|a, b| a.1.q.truncate().length().total_cmp(&b.1.q.truncate().length()))
-        .unwrap();
-    let got = total[i].x;
+    let got = floor_centre(&sol).x;
     // Quadrature over the upper hemisphere (uniform in cos theta and phi).
     let (nc, np) = (2000, 720);
     let mut e = 0.0f64;
@@ -1157,8 +1148,7 @@ fn an_open_floor_under_a_uniform_sky_gets_pi_l() {
     assert!(open > 10 && near > 4, "{open} {near}");
 }
 
-/// The floor vertex nearest the origin of a 4 x 4 m floor at height 0 that `s`
-/// holds as its shape 0, and its total radiosity.
+/// The total radiosity of the upward floor vertex at height 0 nearest the origin.
 fn floor_centre(sol: &Solution) -> Vec3 {
     let total = sol.total();
     let (i, _) = sol
