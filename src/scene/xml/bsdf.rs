@@ -9,7 +9,7 @@ use roxmltree::Node;
 use super::document::{tag, Loader, Src};
 use super::parse;
 use super::properties::{Child, Obj, Target, Val};
-use crate::scene::{Bsdf, BsdfKind, Fresnel, Glossy, Microfacet, TexField, TexSlot};
+use crate::scene::{Bsdf, BsdfKind, Fresnel, Glossy, Microfacet, Rgb, TexField, TexSlot};
 use crate::Result;
 
 impl Loader {
@@ -54,7 +54,7 @@ impl Loader {
             "plastic" | "roughplastic" => {
                 let distribution = match ty.as_str() {
                     "roughplastic" => {
-                        self.roughness_maps(s, &obj);
+                        self.roughness_maps(s, &obj, &["alpha", "alpha_u", "alpha_v"]);
                         Some(rough_plastic(&obj)?)
                     }
                     _ => None,
@@ -234,7 +234,66 @@ impl Loader {
                 });
                 (first.kind, first.twosided)
             }
-            "principled" | "principledthin" => {
+            "principled" => {
+                let p = self.principled(s, c, &obj)?;
+                // The base colour tints the plastic's diffuse base and the metal.
+                let base = obj.texture_image("base_color");
+                let metal_scale = if base.is_some() { p.base } else { Vec3::ONE };
+                let plastic = BsdfKind::RoughPlastic {
+                    diffuse_reflectance: p.base,
+                    lobe: Glossy {
+                        distribution: p.distribution,
+                        fresnel: Fresnel::Dielectric { eta: p.eta },
+                        scale: Vec3::ONE,
+                    },
+                    nonlinear: false,
+                    coating: Default::default(),
+                };
+                let metal = BsdfKind::RoughConductor {
+                    lobe: Glossy {
+                        distribution: p.distribution,
+                        fresnel: Fresnel::Schlick {
+                            f0: if base.is_some() { Vec3::ONE } else { p.base },
+                        },
+                        scale: metal_scale,
+                    },
+                };
+                let blend = p.metallic_map || (p.metallic > 0.0 && p.metallic < 1.0);
+                let mut maps = Vec::new();
+                let mut add = |path: Vec<bool>, field: TexField, image: Option<u32>| {
+                    if let Some(texture) = image {
+                        maps.push(TexSlot {
+                            path,
+                            field,
+                            texture,
+                            factor: Vec3::ONE,
+                        });
+                    }
+                };
+                let kind = if blend {
+                    add(vec![false], TexField::Diffuse, base);
+                    add(vec![true], TexField::Specular, base);
+                    add(Vec::new(), TexField::Weight, obj.texture_image("metallic"));
+                    // Between: the base colour's diffuse and the metal, by `metallic`
+                    // (Mitsuba's diffuse weight; its specular Fresnel, which mixes the
+                    // dielectric's few per cent in, is the metal's alone here: a blend
+                    // renders one glossy lobe).
+                    BsdfKind::Blend {
+                        weight: p.metallic,
+                        a: Box::new(BsdfKind::Diffuse { reflectance: p.base }),
+                        b: Box::new(metal),
+                    }
+                } else if p.metallic >= 1.0 {
+                    add(Vec::new(), TexField::Specular, base);
+                    metal
+                } else {
+                    add(Vec::new(), TexField::Diffuse, base);
+                    plastic
+                };
+                textures.extend(maps);
+                (kind, false)
+            }
+            "principledthin" => {
                 obj.mark_all();
                 let reflectance = obj.reflectance("base_color", 0.5)?;
                 slot("base_color", TexField::Diffuse, Vec3::ONE);
@@ -294,7 +353,7 @@ impl Loader {
     /// (`distribution`, `alpha` or `alpha_u`/`alpha_v`, 0.1 by default); anisotropic
     /// roughness warns.
     fn microfacet(&mut self, s: Src, c: Node, obj: &Obj) -> Result<Microfacet> {
-        self.roughness_maps(s, obj);
+        self.roughness_maps(s, obj, &["alpha", "alpha_u", "alpha_v"]);
         let (beckmann, [alpha, u, v]) = distribution(obj)?;
         let (alpha_u, alpha_v) = match alpha {
             Some(a) => (a, a),
@@ -315,10 +374,10 @@ impl Loader {
         })
     }
 
-    /// Warns of a roughness given by a texture: the lobe takes its mean, the same
-    /// everywhere.
-    fn roughness_maps(&mut self, s: Src, obj: &Obj) {
-        for name in ["alpha", "alpha_u", "alpha_v"] {
+    /// Warns of a roughness (parameters `names`) given by a texture: the lobe takes
+    /// its mean, the same everywhere.
+    fn roughness_maps(&mut self, s: Src, obj: &Obj, names: &[&str]) {
+        for &name in names {
             let Some(p) = obj.get(name) else { continue };
             if let Val::Texture(t) = p.val {
                 let mean = t
@@ -332,6 +391,98 @@ impl Loader {
                 );
             }
         }
+    }
+
+    /// Mitsuba 3's `principled` (Burley's model), read as a blend by `metallic` of a
+    /// rough plastic (its diffuse `base_color` under a GGX coating of index `eta`, or
+    /// that which `specular` gives, 2 / (1 - sqrt(0.08 specular)) - 1) and a rough
+    /// metal (Schlick's curve from `base_color`), both of GGX roughness `roughness`
+    /// squared (`anisotropic` stretches it as Mitsuba does). Its sheen, clearcoat,
+    /// transmission and specular tint are not rendered: a warning where they are
+    /// non-zero. Textures: `base_color` and `metallic` per point, `roughness` by its
+    /// mean (a warning).
+    fn principled(&mut self, s: Src, c: Node, obj: &Obj) -> Result<Principled> {
+        let base = obj.reflectance("base_color", 0.5)?;
+        let unit = |name: &str, default: f32| -> Result<f32> {
+            let v = obj.scalar(name)?.unwrap_or(default);
+            if !(0.0..=1.0).contains(&v) {
+                return Err(obj.err_param(name, format!("= {v} is outside [0, 1]")));
+            }
+            Ok(v)
+        };
+        self.roughness_maps(s, obj, &["roughness"]);
+        let roughness = unit("roughness", 0.5)?;
+        let metallic = unit("metallic", 0.0)?;
+        let metallic_map = obj.texture_image("metallic").is_some();
+        let anisotropic = unit("anisotropic", 0.0)?;
+        let specular = obj.scalar("specular")?.unwrap_or(0.5);
+        if !(0.0..12.5).contains(&specular) {
+            return Err(obj.err_param("specular", format!("= {specular} must be in [0, 12.5)")));
+        }
+        let eta = match obj.scalar("eta")? {
+            Some(e) if e > 0.0 && e.is_finite() => e,
+            Some(e) => return Err(obj.err_param("eta", format!("= {e} must be positive"))),
+            None => 2.0 / (1.0 - (0.08 * specular).sqrt()) - 1.0,
+        };
+        let mut ignored = Vec::new();
+        for name in [
+            "spec_trans",
+            "clearcoat",
+            "sheen",
+            "spec_tint",
+            "diff_trans",
+            "flatness",
+        ] {
+            if obj.scalar(name)?.is_some_and(|v| v != 0.0) {
+                ignored.push(name);
+            }
+        }
+        for name in [
+            "clearcoat_gloss",
+            "sheen_tint",
+            "main_specular_sampling_rate",
+            "clearcoat_sampling_rate",
+            "diffuse_reflectance_sampling_rate",
+            "spec_srate",
+            "clearcoat_srate",
+            "diff_refl_srate",
+        ] {
+            obj.get(name);
+        }
+        if !ignored.is_empty() {
+            self.warn(
+                s,
+                c,
+                format!(
+                    "bsdf 'principled': {} not rendered (its diffuse base, metal and specular \
+                     lobe are)",
+                    ignored.join(", ")
+                ),
+            );
+        }
+        if anisotropic > 0.0 {
+            self.warn(
+                s,
+                c,
+                "anisotropic roughness: radtrace has no surface tangents, so the lobe's \
+                 axes are oriented arbitrarily about the normal",
+            );
+        }
+        // Mitsuba's principled: alpha = roughness^2 (at least 1e-3), stretched by the
+        // aspect sqrt(1 - 0.9 anisotropic).
+        let aspect = (1.0 - 0.9 * anisotropic).sqrt();
+        let a = roughness * roughness;
+        Ok(Principled {
+            base,
+            metallic,
+            metallic_map,
+            eta,
+            distribution: Microfacet {
+                alpha_u: (a / aspect).max(1e-3),
+                alpha_v: (a * aspect).max(1e-3),
+                beckmann: false,
+            },
+        })
     }
 
     /// A conductor's Fresnel term, as `conductor` and `roughconductor` read it: from
@@ -460,6 +611,16 @@ impl Loader {
         self.default_bsdf[k] = Some(i);
         i
     }
+}
+
+/// What a `principled` material is read as ([`Loader::principled`]).
+struct Principled {
+    base: Rgb,
+    metallic: f32,
+    /// `metallic` is a texture (its mean above).
+    metallic_map: bool,
+    eta: f32,
+    distribution: Microfacet,
 }
 
 /// A rough plastic's distribution of normals (Mitsuba 3's `roughplastic`:

@@ -1931,3 +1931,81 @@ fn a_mask_keeps_its_bsdf_and_its_opacity() {
     );
     assert!(e.contains("opacity"), "{e}");
 }
+
+/// Mitsuba 3's `principled`: a rough plastic (GGX of alpha = roughness^2, the index
+/// that `specular` gives, 2 / (1 - sqrt(0.08 s)) - 1: 1.5 for 0.5) at `metallic` 0, a
+/// rough metal (Schlick's curve from the base colour) at 1, the base colour's diffuse
+/// and the metal blended by `metallic` between; `eta` wins over `specular`;
+/// `anisotropic` stretches the roughness as Mitsuba does; a clearcoat warns; a
+/// roughness outside [0, 1] fails with its line.
+#[test]
+fn principled_reads_as_a_plastic_a_metal_or_their_blend() {
+    use crate::scene::{Fresnel, Glossy};
+    let l = ok(&[
+        r#"<shape type="cube"><bsdf type="principled"><rgb name="base_color" value="0.6, 0.2, 0.1"/><float name="roughness" value="0.3"/></bsdf></shape>"#,
+        r#"<shape type="cube"><bsdf type="principled"><rgb name="base_color" value="0.9, 0.7, 0.3"/><float name="metallic" value="1"/><float name="eta" value="1.33"/></bsdf></shape>"#,
+        r#"<shape type="cube"><bsdf type="principled"><float name="metallic" value="0.25"/><float name="anisotropic" value="0.5"/><float name="clearcoat" value="0.4"/></bsdf></shape>"#,
+    ]);
+    let base = Vec3::new(0.6, 0.2, 0.1);
+    match &l.scene.bsdfs[0].kind {
+        BsdfKind::RoughPlastic {
+            diffuse_reflectance,
+            lobe:
+                Glossy {
+                    distribution,
+                    fresnel: Fresnel::Dielectric { eta },
+                    ..
+                },
+            ..
+        } => {
+            assert_eq!(*diffuse_reflectance, base);
+            assert!((distribution.alpha_u - 0.09).abs() < 1e-6 && !distribution.beckmann);
+            assert!((eta - 1.5).abs() < 1e-3, "{eta}");
+        }
+        k => panic!("{k:?}"),
+    }
+    match &l.scene.bsdfs[1].kind {
+        BsdfKind::RoughConductor {
+            lobe:
+                Glossy {
+                    distribution,
+                    fresnel: Fresnel::Schlick { f0 },
+                    ..
+                },
+        } => {
+            assert_eq!(*f0, Vec3::new(0.9, 0.7, 0.3));
+            assert!((distribution.alpha_u - 0.25).abs() < 1e-6);
+        }
+        k => panic!("{k:?}"),
+    }
+    match &l.scene.bsdfs[2].kind {
+        BsdfKind::Blend { weight, a, b } => {
+            assert_eq!(*weight, 0.25);
+            assert_eq!(
+                **a,
+                BsdfKind::Diffuse {
+                    reflectance: Vec3::splat(0.5)
+                }
+            );
+            let BsdfKind::RoughConductor { lobe } = &**b else {
+                panic!("{b:?}")
+            };
+            // alpha 0.25 over and by the aspect sqrt(1 - 0.45).
+            let aspect = 0.55f32.sqrt();
+            assert!((lobe.distribution.alpha_u - 0.25 / aspect).abs() < 1e-5);
+            assert!((lobe.distribution.alpha_v - 0.25 * aspect).abs() < 1e-5);
+        }
+        k => panic!("{k:?}"),
+    }
+    assert!(has_warning(&l, 5, "clearcoat"), "{:?}", l.warnings);
+    assert!(
+        !l.warnings.iter().any(|w| w.contains("not supported")),
+        "{:?}",
+        l.warnings
+    );
+    let m = err(
+        &[r#"<bsdf type="principled" id="p"><float name="roughness" value="1.5"/></bsdf>"#],
+        3,
+    );
+    assert!(m.contains("'roughness'"), "{m}");
+}
