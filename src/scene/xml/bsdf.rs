@@ -239,8 +239,8 @@ impl Loader {
                 // The base colour tints the plastic's diffuse base and the metal.
                 let base = obj.texture_image("base_color");
                 let metal_scale = if base.is_some() { p.base } else { Vec3::ONE };
-                let plastic = BsdfKind::RoughPlastic {
-                    diffuse_reflectance: p.base,
+                let coated = |diffuse_reflectance: Rgb| BsdfKind::RoughPlastic {
+                    diffuse_reflectance,
                     lobe: Glossy {
                         distribution: p.distribution,
                         fresnel: Fresnel::Dielectric { eta: p.eta },
@@ -249,6 +249,12 @@ impl Loader {
                     nonlinear: false,
                     coating: Default::default(),
                 };
+                // Mitsuba's principled diffuse is not dimmed by its specular layer:
+                // the plastic's base is raised so that its diffuse albedo is the base
+                // colour (at most 1 per channel). Its share for a white base:
+                let white = crate::scene::mean(coated(Vec3::ONE).diffuse_albedo()).max(1e-3);
+                let lift = 1.0 / white;
+                let plastic = coated((p.base * lift).min(Vec3::ONE));
                 let metal = BsdfKind::RoughConductor {
                     lobe: Glossy {
                         distribution: p.distribution,
@@ -288,6 +294,9 @@ impl Loader {
                     metal
                 } else {
                     add(Vec::new(), TexField::Diffuse, base);
+                    for m in &mut maps {
+                        m.factor = Vec3::splat(lift);
+                    }
                     plastic
                 };
                 textures.extend(maps);
