@@ -24,8 +24,8 @@ pub struct SurfacePoint {
     pub tri: u32,
     /// Barycentrics of corners 1 and 2.
     pub bary: Vec2,
-    /// Width in surface parameters (u, v) of the camera ray's footprint here, which
-    /// mipmapped textures are read over ([`SurfacePoint::with_footprint`]); 0 for a
+    /// Width of the camera ray's footprint here, across the ray (scene units), which
+    /// mipmapped textures are read over ([`SurfacePoint::uv_footprint`]); 0 for a
     /// point (every other ray).
     pub footprint: f32,
 }
@@ -89,20 +89,27 @@ impl SurfacePoint {
         let kind = if bsdf.textures.is_empty() {
             Cow::Borrowed(&bsdf.kind)
         } else {
-            bsdf.kind_at(self.uv(scene), self.footprint, &scene.textures)
+            bsdf.kind_at(self.uv(scene), self.uv_footprint(scene), &scene.textures)
         };
         (bsdf, kind)
     }
 
     /// This point seen by a camera ray whose footprint is `width` wide here (scene
-    /// units, across the ray): its footprint in (u, v), by the triangle's (u, v) area
-    /// over its area (isotropic: the width across the ray, not its stretch along a
-    /// surface seen at a slant, which would blur a floor seen far off). Meshes
-    /// without (u, v) and exact spheres and disks keep a point.
-    pub fn with_footprint(mut self, scene: &Scene, width: f32) -> Self {
+    /// units, across the ray).
+    pub fn with_footprint(mut self, width: f32) -> Self {
+        self.footprint = width;
+        self
+    }
+
+    /// The footprint in surface parameters (u, v): its width by the square root of
+    /// the triangle's (u, v) area over its area (isotropic: the width across the ray,
+    /// not its stretch along a surface seen at a slant, which would blur a floor seen
+    /// far off). Found only where a textured material is looked up. Meshes without
+    /// (u, v), exact spheres and disks, and rays without a footprint give 0 (a point).
+    pub fn uv_footprint(&self, scene: &Scene) -> f32 {
         let mesh = &scene.shapes[self.shape as usize].mesh;
-        if mesh.quadric.is_some() || mesh.uvs.is_empty() || !(width > 0.0) {
-            return self;
+        if mesh.quadric.is_some() || mesh.uvs.is_empty() || !(self.footprint > 0.0) {
+            return 0.0;
         }
         let [a, b, c] = mesh.triangle(self.tri as usize);
         let [i, j, k] = mesh.indices[self.tri as usize].map(|i| i as usize);
@@ -110,9 +117,10 @@ impl SurfacePoint {
         let area = (b - a).cross(c - a).length();
         let uv_area = (uv(j) - uv(i)).perp_dot(uv(k) - uv(i)).abs();
         if area > 0.0 && uv_area.is_finite() {
-            self.footprint = width * (uv_area / area).sqrt();
+            self.footprint * (uv_area / area).sqrt()
+        } else {
+            0.0
         }
-        self
     }
 
     /// This point with its shading normal tilted by the material's bump or normal
@@ -435,14 +443,14 @@ mod tests {
             bary: Vec2::new(0.2, 0.3),
         };
         let sp = SurfacePoint::new(&s, &ray, &hit(0));
-        assert_eq!(sp.footprint, 0.0);
-        let f = sp.with_footprint(&s, 0.02).footprint;
+        assert_eq!(sp.uv_footprint(&s), 0.0);
+        let f = sp.with_footprint(0.02).uv_footprint(&s);
         assert!((f - 0.02 / 8f32.sqrt()).abs() < 1e-7, "{f}");
         // Without (u, v): a point.
         assert_eq!(
             SurfacePoint::new(&s, &ray, &hit(1))
-                .with_footprint(&s, 0.02)
-                .footprint,
+                .with_footprint(0.02)
+                .uv_footprint(&s),
             0.0
         );
     }

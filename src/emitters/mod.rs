@@ -31,7 +31,8 @@ pub struct LightSample {
     pub dist: f32,
     /// Irradiance-like weight: for a point light I / r^2 (with the spot's falloff);
     /// for an area light Le cos(theta_l) A / r^2 (the estimate of one sample with
-    /// density 1/A). Multiply by the BRDF and the receiver's cosine.
+    /// density 1/A), for an exact sphere seen from outside Le times the solid angle
+    /// it fills. Multiply by the BRDF and the receiver's cosine.
     pub value: Rgb,
     /// The source's surface normal at the point, for a surface source (the shadow
     /// ray must stop short of it); `None` for a point or spot light.
@@ -193,6 +194,23 @@ impl SampledLight {
         let s = self.sample(x, Vec2::ZERO)?;
         let cos = n.dot(s.dir);
         (cos > 0.0).then(|| (s.value * cos, s.point))
+    }
+
+    /// The density per steradian, seen from `p`, with which [`SampledLight::sample`]
+    /// draws the light point `point` of unit normal `normal` on an area light (by
+    /// area, or over the cone an exact sphere fills): what multiple importance
+    /// sampling weighs a light sample and a BSDF's ray that meets the light by.
+    /// `None` for other lights.
+    pub fn density(&self, p: Vec3, point: Vec3, normal: Vec3) -> Option<f32> {
+        let SampledLight::Area(e) = self else {
+            return None;
+        };
+        if let Some(cap) = e.visible_sphere(p) {
+            return Some(1.0 / cap.solid_angle);
+        }
+        let d = point - p;
+        let cos_l = (d.dot(normal) / d.length()).abs();
+        Some(d.length_squared() / (cos_l * e.area).max(1e-12))
     }
 
     /// Whether this is an area (surface) source.
@@ -1008,6 +1026,12 @@ mod tests {
             assert!(((s.point - Vec3::Y * 3.0).length() - 0.5).abs() < 1e-4);
             assert!((s.value.x - omega).abs() < 1e-6);
         }
+        // What multiple importance sampling weighs its samples by: 1 / Omega per
+        // steradian (not the area rule's r^2 / (cos A)).
+        let light = SampledLight::Area(sphere);
+        let s = light.sample(Vec3::ZERO, Vec2::new(0.3, 0.7)).unwrap();
+        let p = light.density(Vec3::ZERO, s.point, s.normal.unwrap()).unwrap();
+        assert!((p * omega - 1.0).abs() < 1e-5, "{p} vs {}", 1.0 / omega);
     }
 
     #[test]

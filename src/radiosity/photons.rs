@@ -407,7 +407,9 @@ pub struct Aim {
     pub light_pick: Option<Alias>,
     /// The lights' power that meets a mirror first (a pilot's estimate).
     pub met: f64,
-    /// The share of aimed photons that meet a mirror first (the pilot's).
+    /// The mean share of an aimed photon's power that the mirror it meets first
+    /// passes on (the pilot's, [`mirror_share`]): 1 for a mirror, the reflected share
+    /// for glass crossed between parallel faces.
     pub success: f64,
 }
 

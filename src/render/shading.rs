@@ -157,8 +157,8 @@ impl<'a> Tracer<'a> {
             q.object = hit.shape;
         }
         let mut sp = SurfacePoint::new(self.scene, ray, &hit);
-        if depth == 0 && self.pixel_angle > 0.0 {
-            sp = sp.with_footprint(self.scene, hit.t * ray.dir.length() * self.pixel_angle);
+        if depth == 0 {
+            sp = sp.with_footprint(hit.t * ray.dir.length() * self.pixel_angle);
         }
         let shape = &self.scene.shapes[hit.shape as usize];
         let mut l = Vec3::ZERO;
@@ -411,12 +411,8 @@ impl<'a> Tracer<'a> {
                     continue;
                 }
                 // The light sample's density per steradian, against the BSDF's rays'.
-                let weight = match (mis, light.area(), s.normal) {
-                    (true, Some(area), Some(nl)) => {
-                        let cos_l = -s.dir.dot(nl);
-                        let p_l = s.dist * s.dist / (cos_l * area).max(1e-12);
-                        power_heuristic(r as f32 * p_l, p_b)
-                    }
+                let weight = match (mis, s.normal.and_then(|nl| light.density(sp.p, s.point, nl))) {
+                    (true, Some(p_l)) => power_heuristic(r as f32 * p_l, p_b),
                     _ => 1.0,
                 };
                 cast += 1;
@@ -508,11 +504,11 @@ impl<'a> Tracer<'a> {
         };
         let sp = SurfacePoint::new(self.scene, ray, &hit);
         let emitter = match (sp.front, self.scene.shapes[hit.shape as usize].emitter) {
-            (true, Some(e)) => match (&self.scene.lights[e as usize], self.sources[e as usize].area()) {
-                (crate::scene::Light::Area { radiance, .. }, Some(area)) => {
-                    let cos_l = (-ray.dir).dot(sp.ng).abs();
-                    Some((e, *radiance, hit.t * hit.t / (cos_l * area).max(1e-12)))
-                }
+            (true, Some(e)) => match (
+                &self.scene.lights[e as usize],
+                self.sources[e as usize].density(ray.origin, sp.p, sp.ng),
+            ) {
+                (crate::scene::Light::Area { radiance, .. }, Some(p_l)) => Some((e, *radiance, p_l)),
                 _ => None,
             },
             _ => None,

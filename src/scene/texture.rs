@@ -301,10 +301,11 @@ impl Texture {
             return;
         }
         let (mut w, mut h) = (self.width, self.height);
-        let mut prev: Vec<[f32; 3]> = (0..(w * h) as usize)
+        let image: Vec<[f32; 3]> = (0..(w * h) as usize)
             .map(|k| self.texel_at(k).to_array())
             .collect();
         while w > 1 || h > 1 {
+            let prev = self.mips.last().map_or(&image, |m| &m.texels);
             let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
             let mut next = Vec::with_capacity((nw * nh) as usize);
             for y in 0..nh {
@@ -320,9 +321,9 @@ impl Texture {
             self.mips.push(Mip {
                 width: nw,
                 height: nh,
-                texels: next.clone(),
+                texels: next,
             });
-            (w, h, prev) = (nw, nh, next);
+            (w, h) = (nw, nh);
         }
     }
 }
