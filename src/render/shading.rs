@@ -555,7 +555,8 @@ impl<'a> Tracer<'a> {
         (l, emitter)
     }
 
-    /// Direct light at a diffuse hit from the picked source: `pick.rays` groups of its
+    /// Direct light at a diffuse hit from the picked source: `pick.rays` (over the
+    /// SIB query's `ray_divisor`, at least one) groups of its
     /// `area_samples` sub-sources, one shadow ray to a jittered point of each (a point
     /// or spot light is one light point). With a SIB whose neighbours are `usable`, a
     /// group the neighbours agree on takes their value instead of a ray; the record
@@ -577,8 +578,12 @@ impl<'a> Tracer<'a> {
     ) -> Rgb {
         let li = pick.source as usize;
         let light = &self.sources[li];
+        let divisor = sib.as_ref().map_or(1, |q| q.ray_divisor.max(1));
         let (n, r) = if light.is_area() {
-            (self.area_samples, pick.rays.clamp(1, self.area_samples))
+            (
+                self.area_samples,
+                (pick.rays / divisor).clamp(1, self.area_samples),
+            )
         } else {
             (1, 1)
         };

@@ -135,6 +135,10 @@ pub struct SibQuery<'a> {
     pub record: &'a mut Vec<Entry>,
     /// Set by the shading: the object the primary ray hit ([`NO_OBJECT`] if none).
     pub object: u32,
+    /// The selection's shadow rays per hit to an area source are divided by this (at
+    /// least one is cast): 1 at the stored levels and with the SIB off, `2^L` at
+    /// anti-aliasing level L (see [`super::adaptive`]).
+    pub ray_divisor: u32,
 }
 
 impl<'a> SibQuery<'a> {
@@ -146,6 +150,7 @@ impl<'a> SibQuery<'a> {
             neighbours,
             record,
             object: NO_OBJECT,
+            ray_divisor: 1,
         }
     }
 
