@@ -429,7 +429,8 @@ impl<'a> Tracer<'a> {
     /// What rough glass (`roughdielectric`) at `sp` passes back along `ray` near the
     /// eye (with a solution, within [`glass::GLASS_SPLIT_DEPTH`] bounces), as a glossy
     /// lobe's is: its reflected and transmitted rays about one facet
-    /// ([`glass::rays`]) read the solution where they land ([`Self::reflected`]), and
+    /// ([`glass::rays_about`]; [`glass::PRIMARY_FACETS`] stratified facets at a
+    /// primary hit) read the solution where they land ([`Self::reflected`]), and
     /// the lights' direct light through it or off it comes from light samples
     /// ([`GLOSSY_LIGHT_SAMPLES`] of an area light, one of a point), the two weighed
     /// against each other by the power heuristic. Without this, the one ray drawn per
@@ -462,15 +463,20 @@ impl<'a> Tracer<'a> {
             }
         };
         let mut l = Vec3::ZERO;
-        for (r, w, s) in glass::rays(kind, sp, ray.dir, depth, seed) {
-            counters.reflection_rays += 1;
-            let (radiance, emitter) = self.reflected(&r, depth + 1, s, counters);
-            let mut got = radiance;
-            if let Some((li, le, p_l)) = emitter {
-                let p_b = kind.rough_glass_eval(wo, r.dir, outward).map_or(0.0, |x| x.1);
-                got += le * power_heuristic(p_b, samples(&lights[li as usize]) as f32 * p_l);
+        let facets = if depth == 0 { glass::PRIMARY_FACETS } else { 1 };
+        for k in 0..facets {
+            let u = stratum(derive(seed, Stream::Transmission), 1, k, facets);
+            let fs = derive(seed, Stream::Sample(k));
+            for (r, w, s) in glass::rays_about(kind, sp, ray.dir, depth, fs, u) {
+                counters.reflection_rays += 1;
+                let (radiance, emitter) = self.reflected(&r, depth + 1, s, counters);
+                let mut got = radiance;
+                if let Some((li, le, p_l)) = emitter {
+                    let p_b = kind.rough_glass_eval(wo, r.dir, outward).map_or(0.0, |x| x.1);
+                    got += le * power_heuristic(p_b, samples(&lights[li as usize]) as f32 * p_l);
+                }
+                l += w * got / facets as f32;
             }
-            l += w * got;
         }
         let seed = derive(seed, Stream::Reflection);
         l += self.light_samples(sp, seed, true, &samples, counters, |dir| {
