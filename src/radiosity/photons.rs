@@ -23,7 +23,9 @@ use crate::accel::{Accel, Ray};
 use crate::emitters::{Emission, SampledLight};
 use crate::interaction::{offset_from, reflect, SurfacePoint, PARALLEL_FACES};
 use crate::mesh::{point_in_polygon, Piece, RadiosityMesh};
-use crate::sampling::{cone_direction, cosine_direction, shot_seed, sphere_cone, uniform3, Alias};
+use crate::sampling::{
+    cone_direction, cosine_direction, derive, shot_seed, sphere_cone, uniform3, Alias, Stream,
+};
 use crate::scene::{mean, Glossy, Rgb, Scene};
 use std::f32::consts::PI;
 
@@ -416,7 +418,8 @@ pub struct Aim {
 impl Aim {
     /// The mirror groups' spheres, and for each light the power it sends into each
     /// one's cone that meets a mirror first (stratified samples, one ray each), which
-    /// weighs the choices.
+    /// weighs its choice of group; then, per light, the power its photons so drawn
+    /// bring to mirrors (a pilot), which weighs the choice of light.
     pub fn new(scene: &Scene, accel: &dyn Accel, lights: &[SampledLight]) -> Aim {
         let spheres = mirror_spheres(scene);
         let pairs = (lights.len() * spheres.len()).max(1) as u32;
@@ -455,7 +458,6 @@ impl Aim {
                     .collect()
             })
             .collect();
-        let totals: Vec<f64> = weights.iter().map(|w| w.iter().sum()).collect();
         let mut aim = Aim {
             per_light: weights.iter().map(|w| Alias::new(w)).collect(),
             cones: lights
@@ -470,11 +472,37 @@ impl Aim {
                     SampledLight::Area(_) | SampledLight::Sun(_) | SampledLight::Sky(_) => None,
                 })
                 .collect(),
-            light_pick: Alias::new(&totals),
+            light_pick: None,
             met: 0.0,
             success: 0.0,
             spheres,
         };
+        // Each light is drawn by the power it sends to mirrors, as its photons are
+        // drawn (a pilot per light): not by its pairs' sum, which counts light in
+        // overlapping cones once per cone, and the sun's (whose photons cover the
+        // whole scene whatever the aim) once per group.
+        let per_light = (AIM_PILOT / lights.len().max(1) as u32).clamp(256, AIM_PILOT);
+        let weights: Vec<f64> = (0..lights.len())
+            .into_par_iter()
+            .map(|l| {
+                let seed = derive(AIM_PILOT_SEED, Stream::Light(l as u32));
+                let (mut met, mut sent) = (0.0f64, 0.0f64);
+                for i in 0..per_light {
+                    let mut k = 3 * i;
+                    let mut next = || {
+                        k += 1;
+                        uniform3(seed, k - 1)
+                    };
+                    if let Some(e) = aim.emit_from(l, lights, &mut next) {
+                        let power = f64::from(mean(e.power));
+                        sent += power;
+                        met += power * mirror_share(scene, accel, &e);
+                    }
+                }
+                met.max(AIM_DEFENSIVE * sent) / f64::from(per_light)
+            })
+            .collect();
+        aim.light_pick = Alias::new(&weights);
         // The groups' cones overlap, so the pairs' figures do not add up: a pilot of
         // photons drawn as the tracer draws them finds the power that meets mirrors
         // and the share of photons that count.
@@ -508,11 +536,23 @@ impl Aim {
         let table = self.light_pick.as_ref()?;
         let [a, b, c] = next();
         let l = table.pick(a, b, c);
+        let e = self.emit_from(l, lights, next)?;
+        Some((e, table.probability(l)))
+    }
+
+    /// A photon of light `l` drawn with the numbers `next` gives: a point on it and a
+    /// direction towards a mirror group, carrying its power over the direction's
+    /// density.
+    fn emit_from(
+        &self,
+        l: usize,
+        lights: &[SampledLight],
+        next: &mut impl FnMut() -> [f32; 3],
+    ) -> Option<Emission> {
         let [u, v, _] = next();
         let t = next();
         let [c, d, _] = next();
-        let e = lights[l].emit_towards(Vec2::new(u, v), |x| self.direction(l, x, t, Vec2::new(c, d)))?;
-        Some((e, table.probability(l)))
+        lights[l].emit_towards(Vec2::new(u, v), |x| self.direction(l, x, t, Vec2::new(c, d)))
     }
 
     /// A direction from `x` on light `l` and its density per steradian: a sphere
@@ -839,5 +879,62 @@ mod tests {
         let want: f64 = got[..2].iter().sum();
         assert!((aim.met - want).abs() < 0.05 * want, "{} vs {want}", aim.met);
         assert!(aim.success > 0.5, "{}", aim.success);
+    }
+
+    /// The sun's photons do not follow the aim at mirror groups, so it is weighed once
+    /// among the lights, not once per group: with the sun and a point light over a
+    /// mirror cut into many groups, each light is drawn in proportion to the power it
+    /// sends the mirror (the sun: its irradiance times the mirror's area; the point:
+    /// I times the mirror's solid angle).
+    #[test]
+    fn the_sun_is_weighed_once_against_a_lamp_among_the_lights_aimed_at_mirrors() {
+        use crate::accel::Bvh;
+        use crate::scene::{BsdfKind, Light};
+        use crate::testutil::{scene_with, square};
+        let mirror = BsdfKind::Conductor {
+            specular_reflectance: Vec3::ONE,
+            fresnel: crate::scene::Fresnel::Schlick { f0: Vec3::ONE },
+        };
+        // A 2 x 2 mirror floor of 8 x 8 squares (many groups), the lamp 1 above its centre.
+        let mut floor = square(-1.0, -0.75, -1.0, -0.75, 0.0, false);
+        floor.indices.clear();
+        floor.positions.clear();
+        for j in 0..8 {
+            for i in 0..8 {
+                let (x, y) = (-1.0 + 0.25 * i as f32, -1.0 + 0.25 * j as f32);
+                floor.append(&square(x, x + 0.25, y, y + 0.25, 0.0, false));
+            }
+        }
+        let (e, i) = (3.0f32, 2.0f32);
+        let s = scene_with(
+            vec![(floor, mirror)],
+            vec![
+                Light::Directional {
+                    direction: -Vec3::Z,
+                    irradiance: Vec3::splat(e),
+                },
+                Light::Point {
+                    position: Vec3::new(0.0, 0.0, 1.0),
+                    intensity: Vec3::splat(i),
+                },
+            ],
+            &[],
+        );
+        let accel = Bvh::build(&s);
+        let lights = SampledLight::prepare_all(&s);
+        let aim = Aim::new(&s, &accel, &lights);
+        assert!(aim.spheres.len() >= 16, "{} groups", aim.spheres.len());
+        let table = aim.light_pick.as_ref().unwrap();
+        // The solid angle of an a x b rectangle from d above its centre is
+        // 4 asin(a b / sqrt((a^2 + 4 d^2) (b^2 + 4 d^2))): here 4 asin(1/2). Before,
+        // the lights were drawn by their pairs' sums: the sun 0.99 of the time.
+        let sun = f64::from(e) * 4.0;
+        let lamp = f64::from(i) * 4.0 * 0.5f64.asin();
+        let want = sun / (sun + lamp);
+        let got = table.probability(0);
+        assert!(
+            (got - want).abs() < 0.05 * want,
+            "the sun drawn {got}, want {want}"
+        );
     }
 }
