@@ -123,11 +123,7 @@ impl<'a> Tracer<'a> {
         let total = self.total();
         for i in c * CHUNK..((c + 1) * CHUNK).min(total) {
             let seed = shot_seed(self.seed, SEED_BASE + i);
-            let mut draw = 0u32;
-            let mut next = || {
-                draw += 1;
-                uniform3(seed, draw)
-            };
+            let mut next = draws(seed, 1);
             let patch = i < self.patch_photons;
             let light = !patch && i < self.patch_photons + self.light_photons;
             let (origin, normal, dir, power, source, start) = if !light {
@@ -488,12 +484,7 @@ impl Aim {
                 let seed = derive(AIM_PILOT_SEED, Stream::Light(l as u32));
                 let (mut met, mut sent) = (0.0f64, 0.0f64);
                 for i in 0..per_light {
-                    let mut k = 3 * i;
-                    let mut next = || {
-                        k += 1;
-                        uniform3(seed, k - 1)
-                    };
-                    if let Some(e) = aim.emit_from(l, lights, &mut next) {
+                    if let Some(e) = aim.emit_from(l, lights, &mut draws(seed, 3 * i)) {
                         let power = f64::from(mean(e.power));
                         sent += power;
                         met += power * mirror_share(scene, accel, &e);
@@ -508,12 +499,7 @@ impl Aim {
         // and the share of photons that count.
         let (mut met, mut hits) = (0.0f64, 0.0f64);
         for i in 0..AIM_PILOT {
-            let mut k = 4 * i;
-            let mut next = || {
-                k += 1;
-                uniform3(AIM_PILOT_SEED, k - 1)
-            };
-            if let Some((e, prob)) = aim.emit(lights, &mut next) {
+            if let Some((e, prob)) = aim.emit(lights, &mut draws(AIM_PILOT_SEED, 4 * i)) {
                 let share = mirror_share(scene, accel, &e);
                 met += f64::from(mean(e.power)) / prob * share;
                 hits += share;
@@ -588,6 +574,15 @@ impl Aim {
             };
         }
         (pdf > 0.0).then_some((dir, pdf as f32))
+    }
+}
+
+/// The numbers of stream `seed` from `from` on, three at a time: a photon's draws.
+fn draws(seed: u32, from: u32) -> impl FnMut() -> [f32; 3] {
+    let mut k = from;
+    move || {
+        k += 1;
+        uniform3(seed, k - 1)
     }
 }
 
@@ -840,12 +835,7 @@ mod tests {
         let n = 400_000u32;
         let mut got = [0.0f64; 3];
         for i in 0..n {
-            let mut k = 4 * i;
-            let mut next = || {
-                k += 1;
-                uniform3(0x5eed, k - 1)
-            };
-            let Some((e, prob)) = aim.emit(&lights, &mut next) else {
+            let Some((e, prob)) = aim.emit(&lights, &mut draws(0x5eed, 4 * i)) else {
                 continue;
             };
             assert_eq!(prob, 1.0);
