@@ -220,3 +220,20 @@ pub fn split_quad(c: [Vec3; 4], k: u32) -> crate::geometry::TriMesh {
     }
     m
 }
+
+/// A material's reading of texture `texture` as its `field` (factor 1, no path).
+pub fn slot(field: crate::scene::TexField, texture: u32) -> crate::scene::TexSlot {
+    crate::scene::TexSlot {
+        path: Vec::new(),
+        field,
+        texture,
+        factor: Vec3::ONE,
+    }
+}
+
+/// Adds texture `t` to the scene, read by material `bsdf` as its `field`.
+pub fn texture_on(s: &mut Scene, bsdf: usize, field: crate::scene::TexField, t: crate::scene::Texture) {
+    s.textures.push(t);
+    let k = s.textures.len() as u32 - 1;
+    s.bsdfs[bsdf].textures.push(slot(field, k));
+}

@@ -760,7 +760,7 @@ fn slats_lying_on_one_another_along_the_lattice_axis_do_not_share_vertices_acros
 #[test]
 fn a_textured_patch_takes_its_texture_mean_over_its_own_uv() {
     use crate::scene::texture::TexFilter;
-    use crate::scene::{TexField, TexSlot, Texture};
+    use crate::scene::{TexField, Texture};
     let (dark, light) = (Vec3::new(0.1, 0.2, 0.3), Vec3::new(0.9, 0.7, 0.5));
     let mut atlas = quad([v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.), v(0., 1., 0.)]);
     let far = quad([v(3., 0., 2.), v(4., 0., 2.), v(4., 1., 2.), v(3., 1., 2.)]);
@@ -788,13 +788,8 @@ fn a_textured_patch_takes_its_texture_mean_over_its_own_uv() {
     );
     let mut t = Texture::from_linear("atlas", 2, 1, vec![dark.to_array(), light.to_array()]).unwrap();
     t.filter = TexFilter::Nearest;
-    s.textures.push(t);
-    s.bsdfs[s.shapes[0].bsdf as usize].textures.push(TexSlot {
-        path: Vec::new(),
-        field: TexField::Diffuse,
-        texture: 0,
-        factor: Vec3::ONE,
-    });
+    let b = s.shapes[0].bsdf as usize;
+    crate::testutil::texture_on(&mut s, b, TexField::Diffuse, t);
     let m = RadiosityMesh::build(&s, 0.3);
     let of = |shape: usize| -> Vec<Rgb> {
         m.patches
@@ -828,7 +823,7 @@ fn a_textured_patch_takes_its_texture_mean_over_its_own_uv() {
 #[test]
 fn each_vertex_takes_its_textures_mean_about_it() {
     use crate::scene::texture::TexFilter;
-    use crate::scene::{TexField, TexSlot, Texture};
+    use crate::scene::{TexField, Texture};
     let (dark, light) = (Vec3::new(0.1, 0.2, 0.3), Vec3::new(0.9, 0.7, 0.5));
     let mut floor = quad([v(0., 0., 0.), v(40., 0., 0.), v(40., 20., 0.), v(0., 20., 0.)]);
     floor.uvs = vec![
@@ -840,14 +835,8 @@ fn each_vertex_takes_its_textures_mean_about_it() {
     let mut s = scene(vec![(floor, (dark + light) * 0.5)], vec![], &[]);
     let mut t = Texture::from_linear("halves", 2, 1, vec![dark.to_array(), light.to_array()]).unwrap();
     t.filter = TexFilter::Nearest;
-    s.textures.push(t);
     s.bsdfs[0].twosided = true;
-    s.bsdfs[0].textures.push(TexSlot {
-        path: Vec::new(),
-        field: TexField::Diffuse,
-        texture: 0,
-        factor: Vec3::ONE,
-    });
+    crate::testutil::texture_on(&mut s, 0, TexField::Diffuse, t);
     let size = 0.25;
     let m = RadiosityMesh::build_covered(&s, size, &Bvh::build(&s));
     assert!(!m.splits.is_empty(), "the floor is cut");
@@ -893,19 +882,13 @@ fn each_vertex_takes_its_textures_mean_about_it() {
 #[test]
 fn a_masked_patch_sends_light_from_the_part_that_is_there() {
     use crate::scene::texture::TexFilter;
-    use crate::scene::{TexField, TexSlot, Texture};
+    use crate::scene::{TexField, Texture};
     let leaf = quad([v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.), v(0., 1., 0.)]);
     let rho = Vec3::new(0.2, 0.6, 0.3);
     let mut s = scene(vec![(leaf, rho)], vec![], &[]);
     let mut t = Texture::from_linear("mask", 2, 1, vec![[1.0; 3], [0.0; 3]]).unwrap();
     t.filter = TexFilter::Nearest;
-    s.textures.push(t);
-    s.bsdfs[0].textures.push(TexSlot {
-        path: Vec::new(),
-        field: TexField::Opacity,
-        texture: 0,
-        factor: Vec3::ONE,
-    });
+    crate::testutil::texture_on(&mut s, 0, TexField::Opacity, t);
     let m = RadiosityMesh::build(&s, 0.25);
     let p = &m.patches[0];
     assert!(

@@ -700,7 +700,7 @@ mod tests {
     /// the floor through an open point brings back the ceiling's radiosity alone.
     #[test]
     fn a_gather_ray_through_an_open_mask_reads_what_is_behind_it() {
-        use crate::scene::{TexField, TexSlot, Texture};
+        use crate::scene::{TexField, Texture};
         let mut s = scene(
             vec![
                 (square(0.0, 2.0, 0.0, 2.0, 0.0, false), Vec3::splat(0.5)),
@@ -715,14 +715,8 @@ mod tests {
         );
         let mut t = Texture::from_linear("half", 2, 1, vec![[0.0; 3], [1.0; 3]]).unwrap();
         t.filter = crate::scene::texture::TexFilter::Nearest;
-        s.textures.push(t);
         let screen = s.shapes[1].bsdf as usize;
-        s.bsdfs[screen].textures.push(TexSlot {
-            path: Vec::new(),
-            field: TexField::Opacity,
-            texture: 0,
-            factor: Vec3::ONE,
-        });
+        crate::testutil::texture_on(&mut s, screen, TexField::Opacity, t);
         let solved = Solved::new(&s, 0.5);
         let (bvh, sol, ctx) = (&solved.bvh, &solved.sol, solved.ctx(&s));
         let g = gather_of(&s, &ctx, crate::selection::Method::Local);

@@ -220,7 +220,7 @@ mod tests {
     /// of many rays).
     #[test]
     fn a_mask_lets_its_open_share_through() {
-        use crate::scene::{TexField, TexSlot, Texture};
+        use crate::scene::{TexField, Texture};
         let (h, i) = (2.0f32, 10.0f32);
         let mut s = scene_with(
             vec![
@@ -233,14 +233,8 @@ mod tests {
             }],
             &[],
         );
-        s.textures
-            .push(Texture::from_linear("o", 1, 1, vec![[0.25; 3]]).unwrap());
-        s.bsdfs[1].textures.push(TexSlot {
-            path: Vec::new(),
-            field: TexField::Opacity,
-            texture: 0,
-            factor: Vec3::ONE,
-        });
+        let t = Texture::from_linear("o", 1, 1, vec![[0.25; 3]]).unwrap();
+        crate::testutil::texture_on(&mut s, 1, TexField::Opacity, t);
         let below = look_down(&s, Vec3::new(0.0, 0.0, 0.5), 4);
         let lit_floor = 0.5 / PI * i / (h * h);
         assert!(

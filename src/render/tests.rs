@@ -545,7 +545,7 @@ fn the_floor_round_a_lamp_close_to_it_shows_the_closed_form() {
 #[test]
 fn a_texture_scales_what_a_surface_reflects_by_its_texel_over_its_vertices_mean() {
     use crate::scene::texture::TexFilter;
-    use crate::scene::{BsdfKind, TexField, TexSlot, Texture};
+    use crate::scene::{BsdfKind, TexField, Texture};
     let rho = Vec3::new(0.6, 0.5, 0.4);
     let mut plain = room();
     for b in &mut plain.bsdfs {
@@ -564,12 +564,7 @@ fn a_texture_scales_what_a_surface_reflects_by_its_texel_over_its_vertices_mean(
     let mut walls = 0;
     for b in &mut textured.bsdfs {
         if b.kind == (BsdfKind::Diffuse { reflectance: rho }) {
-            b.textures.push(TexSlot {
-                path: Vec::new(),
-                field: TexField::Diffuse,
-                texture: 0,
-                factor: Vec3::ONE,
-            });
+            b.textures.push(crate::testutil::slot(TexField::Diffuse, 0));
             walls += 1;
         }
     }
@@ -843,7 +838,7 @@ fn a_rough_plastic_floor_reflects_a_point_light_by_its_lobe_and_its_base() {
 #[test]
 fn a_mipmapped_texture_far_off_shows_its_mean_in_every_pixel() {
     use crate::scene::texture::TexFilter;
-    use crate::scene::{BsdfKind, Light, TexField, TexSlot, Texture};
+    use crate::scene::{BsdfKind, Light, TexField, Texture};
     let mut floor = crate::testutil::square(-50.0, 50.0, -50.0, 50.0, 0.0, false);
     floor.uvs = floor
         .positions
@@ -876,13 +871,7 @@ fn a_mipmapped_texture_far_off_shows_its_mean_in_every_pixel() {
     let mut t = Texture::from_linear("checker", 64, 64, texels).unwrap();
     // 80 repeats: 5,120 texels over the floor's 100 m, about 30 to a pixel.
     t.to_uv = glam::Affine2::from_scale(glam::Vec2::splat(80.0));
-    s.textures.push(t);
-    s.bsdfs[0].textures.push(TexSlot {
-        path: Vec::new(),
-        field: TexField::Diffuse,
-        texture: 0,
-        factor: Vec3::ONE,
-    });
+    crate::testutil::texture_on(&mut s, 0, TexField::Diffuse, t);
     s.sensors.push(crate::testutil::looking(
         Vec3::new(0.0, -1.0, 40.0),
         Vec3::ZERO,
