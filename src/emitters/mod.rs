@@ -64,6 +64,9 @@ pub struct AreaEmitter {
     /// When the emitter is an exact sphere or disk: sampled on its true surface
     /// ([`Quadric::sample`]), not on its triangles.
     exact: Option<Box<Quadric>>,
+    /// When `exact` is a sphere emitting outwards: its centre and radius, which
+    /// [`AreaEmitter::visible_sphere`] samples over from outside.
+    sphere: Option<(Vec3, f32)>,
 }
 
 /// A light source ready for sampling.
@@ -413,11 +416,13 @@ impl AreaEmitter {
             corner_radiance: corners,
             parallelogram,
             exact: None,
+            sphere: None,
         }
     }
 
     /// An emitter of radiance `radiance` over the exact surface `q` (on its front).
     pub fn exact(q: Quadric, radiance: Rgb) -> Self {
+        let sphere = if q.flipped { None } else { q.sphere() };
         AreaEmitter {
             tris: Vec::new(),
             normals: Vec::new(),
@@ -427,6 +432,7 @@ impl AreaEmitter {
             corner_radiance: Vec::new(),
             parallelogram: None,
             exact: Some(Box::new(q)),
+            sphere,
         }
     }
 
@@ -446,8 +452,7 @@ impl AreaEmitter {
 
     /// The sphere (emitting outwards) this emitter is, if `p` is outside it.
     fn visible_sphere(&self, p: Vec3) -> Option<SphereCap> {
-        let q = self.exact.as_deref().filter(|q| !q.flipped)?;
-        let (centre, radius) = q.sphere()?;
+        let (centre, radius) = self.sphere?;
         let (axis, solid_angle) = sphere_cone(p, centre, radius)?;
         Some(SphereCap {
             centre,
