@@ -200,9 +200,7 @@ impl<'a> Tracer<'a> {
         let mut first = start != Start::Patch;
         // Still on a light -> mirror(s) path.
         let mut caustic = start == Start::Light;
-        // Inside thick glass: the face it entered by and the state before, while the
-        // photon may still leave as it came (`None` once reflected inside).
-        let mut inside: Option<Option<(Vec3, bool, Option<SourceId>)>> = None;
+        let mut inside = InGlass::Out;
         for _ in 0..MAX_BOUNCES {
             let ray = Ray {
                 origin: if normal == Vec3::ZERO {
@@ -248,8 +246,9 @@ impl<'a> Tracer<'a> {
                     if !reflects(dir, sp.ng) {
                         return;
                     }
-                    // Reflected inside, it leaves by another way.
-                    inside = inside.map(|_| None);
+                    if inside != InGlass::Out {
+                        inside = InGlass::Reflected;
+                    }
                 } else if u < pr + pt {
                     power *= g.power / pt;
                     dir = g.dir;
@@ -258,16 +257,23 @@ impl<'a> Tracer<'a> {
                     }
                     crossed = !thick;
                     if thick {
-                        match inside.take() {
-                            None => inside = Some(Some((sp.ng, first, source))),
-                            Some(entry) => {
-                                if let Some((_, f, s)) =
-                                    entry.filter(|e| e.0.dot(sp.ng).abs() >= PARALLEL_FACES)
-                                {
-                                    (first, source) = (f, s);
-                                    crossed = true;
+                        match std::mem::replace(&mut inside, InGlass::Out) {
+                            InGlass::Out => {
+                                inside = InGlass::Entered {
+                                    face: sp.ng,
+                                    first,
+                                    source,
                                 }
                             }
+                            InGlass::Entered {
+                                face,
+                                first: f,
+                                source: s,
+                            } if face.dot(sp.ng).abs() >= PARALLEL_FACES => {
+                                (first, source) = (f, s);
+                                crossed = true;
+                            }
+                            _ => {}
                         }
                     }
                 } else {
@@ -575,6 +581,21 @@ impl Aim {
         }
         (pdf > 0.0).then_some((dir, pdf as f32))
     }
+}
+
+/// Where a photon is with respect to thick glass.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum InGlass {
+    Out,
+    /// Inside, entered by the face of normal `face` with the state it had before:
+    /// leaving by a parallel face it is that light again.
+    Entered {
+        face: Vec3,
+        first: bool,
+        source: Option<SourceId>,
+    },
+    /// Inside, reflected there: it leaves by another way.
+    Reflected,
 }
 
 /// The numbers of stream `seed` from `from` on, three at a time: a photon's draws.
