@@ -94,6 +94,13 @@ impl SurfacePoint {
         (bsdf, kind)
     }
 
+    /// Whether light from direction `dir` (unit, away from the point) reaches the
+    /// point's front by both its normals: no shadow ray is cast towards a light
+    /// behind the surface (paper Sect. 6).
+    pub fn faces(&self, dir: Vec3) -> bool {
+        self.ns.dot(dir) > 0.0 && self.ng.dot(dir) > 0.0
+    }
+
     /// This point seen by a camera ray whose footprint is `width` wide here (scene
     /// units, across the ray).
     pub fn with_footprint(mut self, width: f32) -> Self {

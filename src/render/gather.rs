@@ -590,10 +590,10 @@ impl Gather {
             let Some(s) = light.sample(y.p, uv) else {
                 continue;
             };
-            let cos = y.ns.dot(s.dir);
-            if cos <= 0.0 || y.ng.dot(s.dir) <= 0.0 {
+            if !y.faces(s.dir) {
                 continue;
             }
+            let cos = y.ns.dot(s.dir);
             counters.gather_rays += 1;
             e += s.value * (cos * transmittance(ctx.scene, ctx.accel, &y.shadow_ray(s.point, s.normal)));
         }

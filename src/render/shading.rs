@@ -626,11 +626,10 @@ impl<'a> Tracer<'a> {
         for g in 0..r {
             let (a, b, uv) = group_point(g, r, n, light_seed);
             let Some(s) = light.sample(sp.p, uv) else { continue };
-            let cos_l = sp.ns.dot(s.dir);
-            // No shadow ray towards a light behind the surface (paper Sect. 6).
-            if cos_l <= 0.0 || sp.ng.dot(s.dir) <= 0.0 {
+            if !sp.faces(s.dir) {
                 continue;
             }
+            let cos_l = sp.ns.dot(s.dir);
             let reused = match &sib {
                 Some(q) if usable => sib::agree(q.neighbours, pick.source, a, b),
                 _ => None,
@@ -679,7 +678,7 @@ impl<'a> Tracer<'a> {
         for g in 0..k {
             let (_, _, uv) = group_point(g, k, n, seed);
             let Some(s) = light.sample(sp.p, uv) else { continue };
-            if sp.ns.dot(s.dir) > 0.0 && sp.ng.dot(s.dir) > 0.0 {
+            if sp.faces(s.dir) {
                 sum += pane_transmittance(self.scene, self.accel, &sp.shadow_ray(s.point, s.normal));
                 count += 1;
             }
