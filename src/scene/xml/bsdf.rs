@@ -12,6 +12,9 @@ use super::properties::{Child, Obj, Target, Val};
 use crate::scene::{Bsdf, BsdfKind, Fresnel, Glossy, Microfacet, Rgb, TexField, TexSlot};
 use crate::Result;
 
+/// The parameters that give a microfacet lobe's roughness.
+const ALPHAS: [&str; 3] = ["alpha", "alpha_u", "alpha_v"];
+
 impl Loader {
     /// Parses a `<bsdf>` (registering its id).
     pub(super) fn bsdf(&mut self, s: Src, c: Node) -> Result<Bsdf> {
@@ -54,7 +57,7 @@ impl Loader {
             "plastic" | "roughplastic" => {
                 let distribution = match ty.as_str() {
                     "roughplastic" => {
-                        self.roughness_maps(s, &obj, &["alpha", "alpha_u", "alpha_v"]);
+                        self.roughness_maps(s, &obj, &ALPHAS);
                         Some(rough_plastic(&obj)?)
                     }
                     _ => None,
@@ -362,7 +365,7 @@ impl Loader {
     /// (`distribution`, `alpha` or `alpha_u`/`alpha_v`, 0.1 by default); anisotropic
     /// roughness warns.
     fn microfacet(&mut self, s: Src, c: Node, obj: &Obj) -> Result<Microfacet> {
-        self.roughness_maps(s, obj, &["alpha", "alpha_u", "alpha_v"]);
+        self.roughness_maps(s, obj, &ALPHAS);
         let (beckmann, [alpha, u, v]) = distribution(obj)?;
         let (alpha_u, alpha_v) = match alpha {
             Some(a) => (a, a),
