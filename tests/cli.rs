@@ -764,6 +764,36 @@ fn an_unwritable_output_exits_with_code_1() {
     assert!(err.contains(&format!("cannot write {}", out.display())), "{err}");
 }
 
+/// A camera under the floor sees only its back (a one-sided `diffuse`, black from
+/// behind as in Mitsuba): the image is black, and the render says why in one warning,
+/// still writing the image and exiting with 0. Seen from above, no such warning.
+#[test]
+fn a_black_render_says_why() {
+    let d = tmp();
+    let below = PLANE_SCENE.replace(r#"origin="0, 0, 5""#, r#"origin="0, 0, -5""#);
+    assert_ne!(below, PLANE_SCENE);
+    let scene = write_scene(d.path(), &below);
+    let out = d.path().join("below.exr");
+    let o = radtrace(&["render", &s(&scene), "-o", &s(&out), "-D", "res=16"]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    let img = radtrace::io::read_image(&out).unwrap();
+    assert!(img.pixels.iter().all(|p| *p == glam::Vec3::ZERO));
+    let warnings: Vec<&str> = err.lines().filter(|l| l.contains("warning")).collect();
+    assert_eq!(warnings.len(), 1, "{err}");
+    assert!(
+        warnings[0].contains("below.exr: the image is black")
+            && warnings[0].contains("100 % meet the backs of one-sided surfaces"),
+        "{err}"
+    );
+    let above = write_scene(d.path(), PLANE_SCENE);
+    let o = radtrace(&["render", &s(&above), "-o", &s(&out), "-D", "res=16"]);
+    assert!(
+        o.status.success() && !stderr(&o).contains("black"),
+        "{}",
+        stderr(&o)
+    );
+}
 /// Light via a mirror in pass 1 (paper Sect. 6): a spot aimed at a floor mirror lights
 /// the wall where Mitsuba 3's particle tracer puts the reflection
 /// (`tests/data/mirror-spot`, made with `--integrator ptracer --max-depth 3`), mean

@@ -141,6 +141,12 @@ pub(super) fn cmd_render(a: RenderArgs) -> Result<()> {
                 out.non_finite_pixels
             );
         }
+        if !a.quiet {
+            let camera = crate::camera::Camera::new(l.scene.sensor(a.view)?, settings.width, settings.height);
+            if let Some(why) = render::black::why_black(&out.image, &l.scene, &l.bvh, &camera) {
+                eprintln!("radtrace: warning: {}: {why}", a.output.display());
+            }
+        }
         let names = source_names(&l.scene, selection.as_ref(), c.sources.len());
         if let (Some(dir), Some(set)) = (&a.sib_images, &out.samples) {
             write_sib_images(dir, set, &names)?;

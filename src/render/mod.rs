@@ -7,6 +7,7 @@
 //! [`crate::selection::Selection`] picked for the patch hit.
 
 pub mod adaptive;
+pub mod black;
 pub mod counters;
 pub mod debug;
 pub mod film;
