@@ -65,6 +65,7 @@ pub fn scene_with(
         light_ids: vec![],
         sensors: vec![],
         textures: vec![],
+        sun_disk: None,
     };
     for (i, (mesh, kind)) in shapes.into_iter().enumerate() {
         s.bsdfs.push(Bsdf {

@@ -150,8 +150,14 @@ impl<'a> Tracer<'a> {
     ) -> Rgb {
         let Some(hit) = self.accel.intersect(ray) else {
             // The sky (its light is never sampled at a glossy hit: the lobe's rays
-            // find it).
-            return self.scene.sky(ray.dir);
+            // find it), and the sun's disk where rays that see emitters meet it (its
+            // light at a surface is the sun's, sampled).
+            let sun = if emit {
+                self.scene.sun_seen(ray.dir)
+            } else {
+                Vec3::ZERO
+            };
+            return self.scene.sky(ray.dir) + sun;
         };
         if let Some(q) = sib.as_deref_mut() {
             q.object = hit.shape;

@@ -897,3 +897,91 @@ fn a_mipmapped_texture_far_off_shows_its_mean_in_every_pixel() {
     let point = spread(&s);
     assert!(point > 0.3, "{point}");
 }
+
+/// A `sunsky`'s sun seen by the camera, straight and in a mirror floor: summed over
+/// the image (each pixel's radiance above the sky's times its solid angle), the disk
+/// gives back the sun's irradiance E, as a disk of radiance E / its solid angle must;
+/// a rough metal floor, whose lobe rays leave the sun to its light samples, renders
+/// bit for bit as without the disk (the sun is not counted twice).
+#[test]
+fn the_suns_disk_is_seen_directly_and_in_a_mirror_and_carries_its_irradiance() {
+    use crate::scene::{BsdfKind, Fresnel, Glossy, Light, Microfacet, SunDisk};
+    let (e, sky) = (500.0f32, 1.0f32);
+    let towards = Vec3::new(0.3, 0.2, 1.0).normalize();
+    let floor_of = |kind: BsdfKind| {
+        let mut s = crate::testutil::scene_with(
+            vec![(
+                crate::testutil::square(-50.0, 50.0, -50.0, 50.0, 0.0, false),
+                kind,
+            )],
+            vec![
+                Light::Environment {
+                    radiance: Vec3::splat(sky),
+                    texture: None,
+                    to_local: glam::Mat3::IDENTITY,
+                },
+                Light::Directional {
+                    direction: -towards,
+                    irradiance: Vec3::splat(e),
+                },
+            ],
+            &[],
+        );
+        s.sun_disk = Some(SunDisk {
+            light: 1,
+            cos_radius: (0.5f32 * 0.5358).to_radians().cos(),
+        });
+        s
+    };
+    let mirror = BsdfKind::Conductor {
+        specular_reflectance: Vec3::ONE,
+        fresnel: Fresnel::Schlick { f0: Vec3::ONE },
+    };
+    // A 2-degree view (the disk is 0.54 degrees across), 48 x 48, 16 samples a pixel.
+    let (fov, w) = (2.0f32, 48u32);
+    let pixel_solid_angle = (2.0 * (0.5 * fov).to_radians().tan() / w as f32).powi(2);
+    let mut st = settings(Method::Direct);
+    st.spp = 16;
+    let reflected = Vec3::new(towards.x, towards.y, -towards.z);
+    for (eye, look) in [
+        (Vec3::new(0.0, 0.0, 1.0), towards),
+        (Vec3::new(0.0, 0.0, 1.0), reflected),
+    ] {
+        let mut s = floor_of(mirror.clone());
+        s.sensors
+            .push(crate::testutil::looking(eye, eye + look, fov, w, w));
+        let img = draw(&s, &Bvh::build(&s), &st, None).image;
+        let got: f32 = img.pixels.iter().map(|p| (p.x - sky) * pixel_solid_angle).sum();
+        assert!((got - e).abs() < 0.02 * e, "looking along {look}: {got} vs {e}");
+        // Away from the disk, the sky alone.
+        assert!((img.pixels[0].x - sky).abs() < 1e-4, "{}", img.pixels[0].x);
+    }
+    // A rough metal floor seen from above, lit by the sun: with and without the disk.
+    let rough = BsdfKind::RoughConductor {
+        lobe: Glossy {
+            distribution: Microfacet {
+                alpha_u: 0.2,
+                alpha_v: 0.2,
+                beckmann: false,
+            },
+            fresnel: Fresnel::Schlick { f0: Vec3::splat(0.9) },
+            scale: Vec3::ONE,
+        },
+    };
+    let mut s = floor_of(rough);
+    s.sensors.push(crate::testutil::looking(
+        Vec3::new(0.0, 0.0, 2.0),
+        Vec3::new(-0.6, -0.4, 0.0),
+        40.0,
+        24,
+        24,
+    ));
+    let with = draw(&s, &Bvh::build(&s), &st, None).image;
+    assert!(
+        with.pixels.iter().any(|p| p.x > 2.0 * sky),
+        "the sun's highlight is in view"
+    );
+    s.sun_disk = None;
+    let without = draw(&s, &Bvh::build(&s), &st, None).image;
+    assert_eq!(with, without);
+}

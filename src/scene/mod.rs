@@ -535,6 +535,26 @@ impl Scene {
             .map_or(Vec3::ZERO, |(_, l)| l.environment_radiance(dir, &self.textures))
     }
 
+    /// The sun's disk seen looking along `dir` ([`SunDisk`]; black outside it and
+    /// without one). Only camera, mirror and glass rays see it: the sun's light at a
+    /// surface is the directional light's, sampled.
+    pub fn sun_seen(&self, dir: Vec3) -> Rgb {
+        let Some(disk) = self.sun_disk else {
+            return Vec3::ZERO;
+        };
+        let Some(Light::Directional {
+            direction,
+            irradiance,
+        }) = self.lights.get(disk.light as usize)
+        else {
+            return Vec3::ZERO;
+        };
+        if -direction.dot(dir.normalize()) < disk.cos_radius {
+            return Vec3::ZERO;
+        }
+        *irradiance / (std::f32::consts::TAU * (1.0 - disk.cos_radius))
+    }
+
     /// Whether shadow rays may pass through shape `s`: glass (a thin pane,
     /// `thindielectric`, which light crosses unbent, so its shadow is only a dimming;
     /// thick glass where its faces are parallel, as a window pane's), or a `mask`ed
@@ -590,4 +610,18 @@ pub struct Scene {
     pub sensors: Vec<Sensor>,
     /// Image textures that materials refer to ([`TexSlot::texture`]).
     pub textures: Vec<Texture>,
+    /// The sun's disk, where camera, mirror and glass rays see it (a `sunsky`'s sun).
+    pub sun_disk: Option<SunDisk>,
+}
+
+/// The disk of a sun that rays see: a `sunsky`'s sun, whose light is the
+/// [`Light::Directional`] `light`, seen as a disk of uniform radiance (its irradiance
+/// over its solid angle, as Mitsuba's default sun) within `cos_radius` of its
+/// direction. A plain `directional` has none: no ray sees it, as in Mitsuba.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SunDisk {
+    /// Index into [`Scene::lights`] of the sun's directional light.
+    pub light: u32,
+    /// The cosine of the disk's angular radius (half the `sun_aperture`).
+    pub cos_radius: f32,
 }

@@ -83,6 +83,7 @@ fn box_scene() -> Scene {
         light_ids: vec![],
         sensors: vec![],
         textures: vec![],
+        sun_disk: None,
     }
 }
 

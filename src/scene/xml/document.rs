@@ -136,6 +136,7 @@ impl Loader {
                 light_ids: Vec::new(),
                 sensors: Vec::new(),
                 textures: Vec::new(),
+                sun_disk: None,
             },
             ids: HashMap::new(),
             bsdf_index: HashMap::new(),

@@ -217,11 +217,15 @@ impl Loader {
         };
         let (sun_scale, sky_scale) = (scale("sun_scale")?, scale("sky_scale")?);
         // The disk's size changes neither its irradiance nor (here) its shadows: the sun
-        // is a directional light. `complex_sun` changes only the disk's look.
-        if let Some(a) = obj.float("sun_aperture")? {
-            if !(a > 0.0 && a < 180.0) {
-                return Err(obj.err_param("sun_aperture", format!("= {a} degrees is outside (0, 180)")));
-            }
+        // is a directional light. It sets the disk that camera and mirror rays see, of
+        // that irradiance over its solid angle. `complex_sun` changes only the disk's
+        // look (limb darkening), not its mean.
+        let aperture = obj.float("sun_aperture")?.unwrap_or(SUN_APERTURE);
+        if !(aperture > 0.0 && aperture < 180.0) {
+            return Err(obj.err_param(
+                "sun_aperture",
+                format!("= {aperture} degrees is outside (0, 180)"),
+            ));
         }
         obj.boolean("complex_sun", false)?;
         let rot = rotation(&obj)?;
@@ -327,10 +331,17 @@ impl Loader {
                 irradiance,
             };
             self.add_light(sun, id.map(|i| format!("{i} (sun)")));
+            self.scene.sun_disk = Some(crate::scene::SunDisk {
+                light: self.scene.lights.len() as u32 - 1,
+                cos_radius: (0.5 * aperture).to_radians().cos(),
+            });
         }
         Ok(())
     }
 }
+
+/// Mitsuba's default `sun_aperture` (degrees across): the sun seen from the earth.
+const SUN_APERTURE: f32 = 0.5358;
 
 /// The width of the image a `sunsky`'s sky is baked into (0.35 degrees a texel).
 const SKY_IMAGE_WIDTH: u32 = 1024;

@@ -499,6 +499,27 @@ fn sunsky_reads_as_a_sky_image_and_a_sun() {
         "{got} {side}"
     );
     assert_eq!(l.scene.sky(-Vec3::Y), Vec3::ZERO);
+    // The sun's disk (Mitsuba's default aperture, 0.5358 degrees across), seen along
+    // its direction with its irradiance over its solid angle, and not 0.3 degrees off.
+    let disk = l.scene.sun_disk.expect("a sunsky's sun has a disk");
+    assert_eq!(disk.light, 1);
+    assert!((disk.cos_radius.acos().to_degrees() - 0.2679).abs() < 1e-3);
+    let towards = Vec3::new(1.0, 1.0, 0.0).normalize();
+    let omega = std::f32::consts::TAU * (1.0 - disk.cos_radius);
+    assert!(close(
+        l.scene.sun_seen(towards) * omega,
+        sunsky::rgb(model.sun_irradiance())
+    ));
+    let off = glam::Quat::from_rotation_z(0.3f32.to_radians()) * towards;
+    assert_eq!(l.scene.sun_seen(off), Vec3::ZERO);
+    let wide = ok(&[
+        r#"<emitter type="sunsky"><vector name="sun_direction" value="0, 0, 1"/><float name="sun_aperture" value="2"/></emitter>"#,
+    ]);
+    let disk = wide.scene.sun_disk.unwrap();
+    assert!((disk.cos_radius - 1f32.to_radians().cos()).abs() < 1e-7);
+    // A plain `directional` has no disk.
+    let plain = ok(&[r#"<emitter type="directional"><vector name="direction" value="0, 0, -1"/></emitter>"#]);
+    assert_eq!(plain.scene.sun_disk, None);
 
     // By date and place (Paris, a winter morning): the sun as the model places it.
     let l = ok(&[
