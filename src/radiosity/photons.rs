@@ -16,7 +16,7 @@
 //! Photons are traced in fixed chunks whose deposits are added in chunk order, so the
 //! result depends on the seed alone, never on the threads.
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
 use crate::accel::{Accel, Ray};
@@ -403,6 +403,8 @@ const AIM_DEFENSIVE: f64 = 0.05;
 pub struct Aim {
     /// Bounding spheres (centre, radius) of groups of mirror triangles.
     spheres: Vec<(Vec3, f32)>,
+    /// The same spheres four at a time, for the density's test ([`SphereLanes`]).
+    lanes: Vec<SphereLanes>,
     /// Per light: the chance of aiming at each sphere.
     per_light: Vec<Option<Alias>>,
     /// Per point or spot light: the cone from it round each sphere.
@@ -477,6 +479,7 @@ impl Aim {
             light_pick: None,
             met: 0.0,
             success: 0.0,
+            lanes: SphereLanes::of(&spheres),
             spheres,
         };
         // Each light is drawn by the power it sends to mirrors, as its photons are
@@ -555,18 +558,34 @@ impl Aim {
         let (c, r) = self.spheres[pick.pick(u[0], u[1], u[2])];
         let (dir, _) = cone_towards(x, c, r, v);
         // The cones from a point or spot light are the same for all its photons.
-        let fixed = self.cones.get(l).and_then(Option::as_ref);
         let mut pdf = 0.0f64;
-        for (k, &(c, r)) in self.spheres.iter().enumerate() {
+        let Some(fixed) = self.cones.get(l).and_then(Option::as_ref) else {
+            // From an area light, the sun or the sky: only the cones that hold the
+            // direction are built (building all 64 from every photon's origin was
+            // most of the time of an area light's photons).
+            for (g, lanes) in self.lanes.iter().enumerate() {
+                let mut hits = lanes.holding(x, dir);
+                while hits != 0 {
+                    let k = 4 * g + hits.trailing_zeros() as usize;
+                    hits &= hits - 1;
+                    let p = pick.probability(k);
+                    if p > 0.0 {
+                        let (c, r) = self.spheres[k];
+                        pdf += match sphere_cone(x, c, r) {
+                            Some((_, omega)) => p / f64::from(omega),
+                            None => p / (4.0 * std::f64::consts::PI),
+                        };
+                    }
+                }
+            }
+            return (pdf > 0.0).then_some((dir, pdf as f32));
+        };
+        for (k, cone) in fixed.iter().enumerate() {
             let p = pick.probability(k);
             if p == 0.0 {
                 continue;
             }
-            let cone = match fixed {
-                Some(cones) => cones[k],
-                None => sphere_cone(x, c, r),
-            };
-            pdf += match cone {
+            pdf += match *cone {
                 Some((axis, omega)) => {
                     // |dir - axis|^2 = 2 (1 - cos): precise for narrow cones.
                     let inside = (dir - axis).length_squared() <= omega / PI;
@@ -580,6 +599,60 @@ impl Aim {
             };
         }
         (pdf > 0.0).then_some((dir, pdf as f32))
+    }
+}
+
+/// Four spheres (centres and squared radii; an unused lane has radius squared -1),
+/// tested together for whether a direction from a point lies in the cone from that
+/// point round each.
+#[derive(Debug, Clone, Copy)]
+struct SphereLanes {
+    cx: Vec4,
+    cy: Vec4,
+    cz: Vec4,
+    r2: Vec4,
+}
+
+impl SphereLanes {
+    /// `spheres` four at a time.
+    fn of(spheres: &[(Vec3, f32)]) -> Vec<SphereLanes> {
+        spheres
+            .chunks(4)
+            .map(|four| {
+                let lane = |k: usize, f: &dyn Fn(Vec3, f32) -> f32, none: f32| {
+                    four.get(k).map_or(none, |&(c, r)| f(c, r))
+                };
+                let v = |f: &dyn Fn(Vec3, f32) -> f32, none: f32| {
+                    Vec4::new(
+                        lane(0, f, none),
+                        lane(1, f, none),
+                        lane(2, f, none),
+                        lane(3, f, none),
+                    )
+                };
+                SphereLanes {
+                    cx: v(&|c, _| c.x, 0.0),
+                    cy: v(&|c, _| c.y, 0.0),
+                    cz: v(&|c, _| c.z, 0.0),
+                    r2: v(&|_, r| r * r, -1.0),
+                }
+            })
+            .collect()
+    }
+
+    /// The lanes (bits 0-3) whose cone from `x` holds the unit direction `dir`: its
+    /// line passes the centre within the radius, ahead of `x` (without a root, a
+    /// division, or cancellation in narrow cones), or `x` is inside the sphere
+    /// (every direction meets it).
+    #[inline]
+    fn holding(&self, x: Vec3, dir: Vec3) -> u32 {
+        let (ax, ay, az) = (self.cx - x.x, self.cy - x.y, self.cz - x.z);
+        let t = ax * dir.x + ay * dir.y + az * dir.z;
+        let (px, py, pz) = (ax - t * dir.x, ay - t * dir.y, az - t * dir.z);
+        let perp2 = px * px + py * py + pz * pz;
+        let dist2 = ax * ax + ay * ay + az * az;
+        let ahead = t.cmpgt(Vec4::ZERO) & perp2.cmple(self.r2);
+        (ahead | dist2.cmple(self.r2)).bitmask()
     }
 }
 
@@ -802,14 +875,16 @@ mod tests {
     }
 
     /// Photons aimed at mirrors carry to each mirror the power the light sends it:
-    /// I times the solid angle the mirror cube is seen under, for a point light and
-    /// two mirror cubes whose groups' cones overlap (the density is the mixture's over
-    /// all the groups' cones). A spot whose cone meets no mirror gets no photons.
+    /// I times the solid angle the mirror cube is seen under, for two mirror cubes
+    /// whose groups' cones overlap (the density is the mixture's over all the groups'
+    /// cones): from a point light (whose cones are built once), and from a small
+    /// glowing ball of the same intensity (whose cones are tested from each photon's
+    /// origin). A spot whose cone meets no mirror gets no photons.
     #[test]
     fn photons_aimed_at_mirrors_carry_the_power_each_one_receives() {
         use crate::accel::Bvh;
         use crate::geometry::front_solid_angle;
-        use crate::scene::BsdfKind;
+        use crate::scene::{BsdfKind, Light};
         use crate::testutil::{box_outside, scene_with};
         let mirror = BsdfKind::Conductor {
             specular_reflectance: Vec3::ONE,
@@ -826,70 +901,72 @@ mod tests {
         let diffuse = BsdfKind::Diffuse {
             reflectance: Vec3::splat(0.5),
         };
-        let s = scene_with(
-            vec![
-                (cube(v(3.0, 0.0, 0.0), 0.3), mirror.clone()),
-                (cube(v(3.0, 0.75, 0.0), 0.2), mirror),
-                (cube(v(-3.0, 0.0, 0.0), 0.5), diffuse),
-            ],
-            vec![
-                crate::scene::Light::Point {
-                    position: Vec3::ZERO,
-                    intensity: Vec3::splat(2.0),
-                },
-                crate::scene::Light::Spot {
-                    position: Vec3::ZERO,
-                    direction: Vec3::Y,
-                    intensity: Vec3::splat(2.0),
-                    cutoff_angle: 0.3,
-                    beam_width: 0.2,
-                },
-            ],
-            &[],
-        );
-        let accel = Bvh::build(&s);
-        let lights = SampledLight::prepare_all(&s);
-        let aim = Aim::new(&s, &accel, &lights);
-        assert!(aim.spheres.len() > 2, "{} groups", aim.spheres.len());
-        let table = aim.light_pick.as_ref().unwrap();
-        assert_eq!(table.probability(1), 0.0);
-        let n = 400_000u32;
-        let mut got = [0.0f64; 3];
-        for i in 0..n {
-            let Some((e, prob)) = aim.emit(&lights, &mut draws(0x5eed, 4 * i)) else {
-                continue;
-            };
-            assert_eq!(prob, 1.0);
-            let ray = Ray {
-                origin: e.origin,
-                dir: e.dir,
-                tmin: 0.0,
-                tmax: f32::INFINITY,
-            };
-            if let Some(h) = accel.intersect(&ray) {
-                got[h.shape as usize] += f64::from(e.power.x) / f64::from(n);
+        let cubes = vec![
+            (cube(v(3.0, 0.0, 0.0), 0.3), mirror.clone()),
+            (cube(v(3.0, 0.75, 0.0), 0.2), mirror),
+            (cube(v(-3.0, 0.0, 0.0), 0.5), diffuse.clone()),
+        ];
+        let spot = Light::Spot {
+            position: Vec3::ZERO,
+            direction: Vec3::Y,
+            intensity: Vec3::splat(2.0),
+            cutoff_angle: 0.3,
+            beam_width: 0.2,
+        };
+        let point = Light::Point {
+            position: Vec3::ZERO,
+            intensity: Vec3::splat(2.0),
+        };
+        // A ball of radius b and radiance L has intensity L pi b^2 every way.
+        let b = 0.02f32;
+        let mut with_ball = cubes.clone();
+        with_ball.push((crate::geometry::shapes::sphere(Vec3::ZERO, b), diffuse));
+        let ball_radiance = Vec3::splat(2.0 / (PI * b * b));
+        // (Half the ball's points face away from the mirrors: fewer photons count.)
+        for (s, spot_index, success) in [
+            (scene_with(cubes, vec![point, spot.clone()], &[]), 1, 0.5),
+            (scene_with(with_ball, vec![spot], &[(3, ball_radiance)]), 0, 0.2),
+        ] {
+            let accel = Bvh::build(&s);
+            let lights = SampledLight::prepare_all(&s);
+            let aim = Aim::new(&s, &accel, &lights);
+            assert!(aim.spheres.len() > 2, "{} groups", aim.spheres.len());
+            let table = aim.light_pick.as_ref().unwrap();
+            assert_eq!(table.probability(spot_index), 0.0);
+            let n = 400_000u32;
+            let mut got = [0.0f64; 4];
+            for i in 0..n {
+                let Some((e, prob)) = aim.emit(&lights, &mut draws(0x5eed, 4 * i)) else {
+                    continue;
+                };
+                assert_eq!(prob, 1.0);
+                let ray = crate::interaction::emission_ray(&e);
+                if let Some(h) = accel.intersect(&ray) {
+                    got[h.shape as usize] += f64::from(e.power.x) / f64::from(n);
+                }
             }
+            for (k, shape) in s.shapes.iter().enumerate().take(2) {
+                let m = &shape.mesh;
+                let tris: Vec<[Vec3; 3]> = m
+                    .indices
+                    .iter()
+                    .map(|t| t.map(|i| m.positions[i as usize]))
+                    .collect();
+                let want = 2.0 * f64::from(front_solid_angle(Vec3::ZERO, &tris));
+                assert!(
+                    (got[k] - want).abs() < 0.02 * want,
+                    "{:?}, mirror {k}: {} vs {want}",
+                    s.lights[0],
+                    got[k]
+                );
+            }
+            assert_eq!(got[2], 0.0);
+            // The pilot finds the power that meets mirrors, and most aimed photons
+            // count (the groups are single triangles' spheres here).
+            let want: f64 = got[..2].iter().sum();
+            assert!((aim.met - want).abs() < 0.05 * want, "{} vs {want}", aim.met);
+            assert!(aim.success > success, "{}", aim.success);
         }
-        for (k, shape) in s.shapes.iter().enumerate().take(2) {
-            let m = &shape.mesh;
-            let tris: Vec<[Vec3; 3]> = m
-                .indices
-                .iter()
-                .map(|t| t.map(|i| m.positions[i as usize]))
-                .collect();
-            let want = 2.0 * f64::from(front_solid_angle(Vec3::ZERO, &tris));
-            assert!(
-                (got[k] - want).abs() < 0.02 * want,
-                "mirror {k}: {} vs {want}",
-                got[k]
-            );
-        }
-        assert_eq!(got[2], 0.0);
-        // The pilot finds the power that meets mirrors, and nearly every aimed photon
-        // does (the groups are single triangles' spheres here).
-        let want: f64 = got[..2].iter().sum();
-        assert!((aim.met - want).abs() < 0.05 * want, "{} vs {want}", aim.met);
-        assert!(aim.success > 0.5, "{}", aim.success);
     }
 
     /// The sun's photons do not follow the aim at mirror groups, so it is weighed once
