@@ -81,22 +81,24 @@ impl Quadrics {
         let mut best = None;
         let mut hit = RayHit::none();
         bvh.ray_traverse(Self::bvh_ray(ray, tmax), &mut hit, |r, i| {
-            let (shape, q) = &self.items[i];
-            match q.intersect(ray.origin, ray.dir, ray.tmin, r.tmax) {
-                Some((t, uv)) => {
-                    let (tri, bary) = q.triangle_at(uv);
-                    best = Some(Hit {
-                        t,
-                        shape: *shape,
-                        tri,
-                        bary,
-                    });
+            match self.items[i].1.hit(ray.origin, ray.dir, ray.tmin, r.tmax) {
+                Some((t, at)) => {
+                    best = Some((i, t, at));
                     t
                 }
                 None => f32::INFINITY,
             }
         });
-        best
+        // The surface parameters of the nearest hit only.
+        let (i, t, at) = best?;
+        let (shape, q) = &self.items[i];
+        let (tri, bary) = q.triangle_at(q.param_at(at));
+        Some(Hit {
+            t,
+            shape: *shape,
+            tri,
+            bary,
+        })
     }
 
     /// Whether `ray` meets any exact surface that stops shadow rays.
@@ -106,7 +108,7 @@ impl Quadrics {
             if self.see_through[i] {
                 return f32::INFINITY;
             }
-            match self.items[i].1.intersect(ray.origin, ray.dir, ray.tmin, r.tmax) {
+            match self.items[i].1.hit(ray.origin, ray.dir, ray.tmin, r.tmax) {
                 Some((t, _)) => t,
                 None => f32::INFINITY,
             }

@@ -187,6 +187,22 @@ impl Quadric {
     /// The first hit of the segment `origin + t dir`, `t` in `(max(tmin, 0), tmax]`:
     /// its `t` and the surface parameters there.
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<(f32, Param)> {
+        self.hit(origin, dir, tmin, tmax)
+            .map(|(t, at)| (t, self.param_at(at)))
+    }
+
+    /// The surface parameters of a hit's object-space point ([`Quadric::hit`]).
+    pub fn param_at(&self, at: DVec3) -> Param {
+        match self.kind {
+            QuadricKind::Sphere => sphere_param(at.normalize()),
+            QuadricKind::Disk => disk_param(at),
+        }
+    }
+
+    /// As [`Quadric::intersect`], with the hit's object-space point in place of its
+    /// surface parameters (which cost inverse tangents: an occlusion test, or a hit
+    /// that a nearer one replaces, needs none; [`Quadric::param_at`] gives them).
+    pub fn hit(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<(f32, DVec3)> {
         let m = self.local_map();
         let (o, d) = (
             m.transform_point3(origin.as_dvec3()),
@@ -214,7 +230,7 @@ impl Quadric {
                     std::mem::swap(&mut t0, &mut t1);
                 }
                 let t = [t0, t1].into_iter().find(|&t| ok(t))?;
-                Some((t as f32, sphere_param((o + d * t).normalize())))
+                Some((t as f32, o + d * t))
             }
             QuadricKind::Disk => {
                 if d.z == 0.0 {
@@ -226,7 +242,7 @@ impl Quadric {
                 }
                 let x = o.x + d.x * t;
                 let y = o.y + d.y * t;
-                (x * x + y * y <= 1.0).then(|| (t as f32, disk_param(DVec3::new(x, y, 0.0))))
+                (x * x + y * y <= 1.0).then(|| (t as f32, DVec3::new(x, y, 0.0)))
             }
         }
     }
