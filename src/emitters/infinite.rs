@@ -231,6 +231,27 @@ impl Sky {
         self.density[y * w + x] / (2.0 * std::f32::consts::PI * std::f32::consts::PI * sin)
     }
 
+    /// A ray of skylight (a photon) aimed at the sphere (`c`, `r`) inside the scene:
+    /// from the direction `u` draws ([`Sky::direction`]), leaving the disk across
+    /// that sphere beyond the scene (`v` places it), carrying the radiance from there
+    /// over the direction's density times the disk's area. `None` where the sky is
+    /// black.
+    pub fn emit_at(&self, u: Vec2, v: Vec2, c: Vec3, r: f32) -> Option<Emission> {
+        let (dir, pdf) = self.direction(u);
+        let value = self.radiance_towards(dir);
+        if !(pdf > 0.0) || !(value.max_element() > 0.0) {
+            return None;
+        }
+        // Beyond the scene's bounding sphere, whatever the sphere's place in it.
+        let back = 2.02 * self.radius + (c - self.centre).length();
+        Some(Emission {
+            origin: disk_point(c + dir * back, -dir, r, v),
+            normal: None,
+            dir: -dir,
+            power: value * (std::f32::consts::PI * r * r / pdf),
+        })
+    }
+
     /// The sky seen from `p` in the direction `u` draws.
     pub fn sample(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
         let (dir, pdf) = self.direction(u);

@@ -297,8 +297,8 @@ impl SampledLight {
     /// (outside a spot's cone, behind an area light) or `aim` gives no direction.
     ///
     /// The sun's light leaves its disk across the scene along its one direction
-    /// (`aim` is not asked); the sky sends no photons (its light reaches the
-    /// surfaces by the shots, which see through thin glass).
+    /// (`aim` is not asked); the sky's photons are [`Sky::emit_at`]'s (here `None`: they
+    /// need a direction and a place on the disk, four numbers).
     pub fn emit_towards(&self, u: Vec2, aim: impl FnOnce(Vec3) -> Option<(Vec3, f32)>) -> Option<Emission> {
         let (origin, normal, value) = match self {
             SampledLight::Sun(s) => return Some(s.emit(u)),

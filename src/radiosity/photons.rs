@@ -442,7 +442,11 @@ impl Aim {
                             // The same stratum picks the origin and the direction, in
                             // transposed order, so that both sweep their ranges.
                             let v = Vec2::new(u.y, u.x);
-                            let Some(e) = light.emit_towards(u, |x| Some(cone_towards(x, c, r, v))) else {
+                            let e = match light {
+                                SampledLight::Sky(sky) => sky.emit_at(u, v, c, r),
+                                _ => light.emit_towards(u, |x| Some(cone_towards(x, c, r, v))),
+                            };
+                            let Some(e) = e else {
                                 continue;
                             };
                             let power = f64::from(mean(e.power));
@@ -547,6 +551,34 @@ impl Aim {
         let [u, v, _] = next();
         let t = next();
         let [c, d, _] = next();
+        if let SampledLight::Sky(sky) = &lights[l] {
+            // Parallel rays from the sky: a group, a direction by the sky's
+            // brightness, then a place on the disk across the group's sphere; the
+            // density per area across the rays is the mixture's over every group
+            // whose sphere the ray's line crosses.
+            let pick = self.per_light.get(l)?.as_ref()?;
+            let (gc, gr) = self.spheres[pick.pick(t[0], t[1], t[2])];
+            let e = sky.emit_at(Vec2::new(u, v), Vec2::new(c, d), gc, gr)?;
+            let mut density = 0.0f64;
+            for (g, lanes) in self.lanes.iter().enumerate() {
+                let mut hits = lanes.holding(e.origin, e.dir);
+                while hits != 0 {
+                    let k = 4 * g + hits.trailing_zeros() as usize;
+                    hits &= hits - 1;
+                    density +=
+                        pick.probability(k) / (std::f64::consts::PI * f64::from(self.spheres[k].1).powi(2));
+                }
+            }
+            if !(density > 0.0) {
+                return None;
+            }
+            // The emission carries the picked disk's area; over the mixture's density.
+            let scale = 1.0 / (PI * gr * gr * density as f32);
+            return Some(Emission {
+                power: e.power * scale,
+                ..e
+            });
+        }
         lights[l].emit_towards(Vec2::new(u, v), |x| self.direction(l, x, t, Vec2::new(c, d)))
     }
 
@@ -696,14 +728,19 @@ fn mirror_share(scene: &Scene, accel: &dyn Accel, e: &Emission) -> f64 {
     let Some(h) = accel.intersect(&ray) else {
         return 0.0;
     };
-    let kind = &scene.bsdfs[scene.shapes[h.shape as usize].bsdf as usize].kind;
+    let bsdf = &scene.bsdfs[scene.shapes[h.shape as usize].bsdf as usize];
+    let kind = &bsdf.kind;
     if !kind.has_mirror() {
+        return 0.0;
+    }
+    let sp = SurfacePoint::new(scene, &ray, &h);
+    // The back of a one-sided material passes nothing on, as the tracer finds.
+    if !sp.front && !bsdf.twosided {
         return 0.0;
     }
     if !kind.is_glass() || crate::interaction::pane_transmittance(scene, accel, &ray) == 0.0 {
         return 1.0;
     }
-    let sp = SurfacePoint::new(scene, &ray, &h);
     let cos = sp.ng.dot(ray.dir).abs() / ray.dir.length();
     f64::from(mean(kind.mirror(cos)).clamp(0.0, 1.0))
 }
@@ -1023,6 +1060,70 @@ mod tests {
         assert!(
             (got - want).abs() < 0.05 * want,
             "the sun drawn {got}, want {want}"
+        );
+    }
+
+    /// The sky's photons are parallel rays aimed at the mirror groups' spheres (the
+    /// density per area across the rays is the mixture's over the spheres each line
+    /// crosses): under a uniform sky of radiance L, those that meet the front of a
+    /// one-sided 2 x 2 m mirror floor of 64 squares (many overlapping groups) carry
+    /// L pi A, what the sky sends it; those from below meet its back, which passes
+    /// nothing on, and the pilot does not count them.
+    #[test]
+    fn sky_photons_aimed_at_a_mirror_floor_carry_what_the_sky_sends_it() {
+        use crate::accel::Bvh;
+        use crate::scene::{BsdfKind, Light};
+        use crate::testutil::{scene_with, square};
+        let mirror = BsdfKind::Conductor {
+            specular_reflectance: Vec3::ONE,
+            fresnel: crate::scene::Fresnel::Schlick { f0: Vec3::ONE },
+        };
+        let mut floor = square(-1.0, -0.75, -1.0, -0.75, 0.0, false);
+        floor.indices.clear();
+        floor.positions.clear();
+        for j in 0..8 {
+            for i in 0..8 {
+                let (x, y) = (-1.0 + 0.25 * i as f32, -1.0 + 0.25 * j as f32);
+                floor.append(&square(x, x + 0.25, y, y + 0.25, 0.0, false));
+            }
+        }
+        let l = 1.5f32;
+        let s = scene_with(
+            vec![(floor, mirror)],
+            vec![Light::Environment {
+                radiance: Vec3::splat(l),
+                texture: None,
+                to_local: glam::Mat3::IDENTITY,
+            }],
+            &[],
+        );
+        let accel = Bvh::build(&s);
+        let lights = SampledLight::prepare_all(&s);
+        let aim = Aim::new(&s, &accel, &lights);
+        assert!(aim.spheres.len() >= 16, "{} groups", aim.spheres.len());
+        let want = f64::from(l) * std::f64::consts::PI * 4.0;
+        let n = 200_000u32;
+        let (mut front, mut back) = (0.0f64, 0u32);
+        for i in 0..n {
+            let Some((e, prob)) = aim.emit(&lights, &mut draws(0x5eed, 4 * i)) else {
+                continue;
+            };
+            assert_eq!(prob, 1.0);
+            assert!(e.origin.length() > 1.4, "photons come from beyond the scene");
+            if accel.intersect(&crate::interaction::emission_ray(&e)).is_some() {
+                if e.dir.z < 0.0 {
+                    front += f64::from(e.power.x) / f64::from(n);
+                } else {
+                    back += 1;
+                }
+            }
+        }
+        assert!((front - want).abs() < 0.02 * want, "{front} vs {want}");
+        assert!(back > n / 10, "{back} photons from below");
+        assert!(
+            (aim.met - want).abs() < 0.05 * want,
+            "the pilot: {} vs {want}",
+            aim.met
         );
     }
 }
