@@ -1006,21 +1006,10 @@ mod tests {
         }
     }
 
-    /// The sun's photons do not follow the aim at mirror groups, so it is weighed once
-    /// among the lights, not once per group: with the sun and a point light over a
-    /// mirror cut into many groups, each light is drawn in proportion to the power it
-    /// sends the mirror (the sun: its irradiance times the mirror's area; the point:
-    /// I times the mirror's solid angle).
-    #[test]
-    fn the_sun_is_weighed_once_against_a_lamp_among_the_lights_aimed_at_mirrors() {
-        use crate::accel::Bvh;
-        use crate::scene::{BsdfKind, Light};
-        use crate::testutil::{scene_with, square};
-        let mirror = BsdfKind::Conductor {
-            specular_reflectance: Vec3::ONE,
-            fresnel: crate::scene::Fresnel::Schlick { f0: Vec3::ONE },
-        };
-        // A 2 x 2 mirror floor of 8 x 8 squares (many groups), the lamp 1 above its centre.
+    /// A one-sided 2 x 2 m mirror floor at z = 0, facing up, cut into 8 x 8 squares
+    /// (many mirror groups), and its material.
+    fn mirror_floor() -> (crate::geometry::TriMesh, crate::scene::BsdfKind) {
+        use crate::testutil::square;
         let mut floor = square(-1.0, -0.75, -1.0, -0.75, 0.0, false);
         floor.indices.clear();
         floor.positions.clear();
@@ -1030,6 +1019,25 @@ mod tests {
                 floor.append(&square(x, x + 0.25, y, y + 0.25, 0.0, false));
             }
         }
+        let mirror = crate::scene::BsdfKind::Conductor {
+            specular_reflectance: Vec3::ONE,
+            fresnel: crate::scene::Fresnel::Schlick { f0: Vec3::ONE },
+        };
+        (floor, mirror)
+    }
+
+    /// The sun's photons do not follow the aim at mirror groups, so it is weighed once
+    /// among the lights, not once per group: with the sun and a point light over a
+    /// mirror cut into many groups, each light is drawn in proportion to the power it
+    /// sends the mirror (the sun: its irradiance times the mirror's area; the point:
+    /// I times the mirror's solid angle).
+    #[test]
+    fn the_sun_is_weighed_once_against_a_lamp_among_the_lights_aimed_at_mirrors() {
+        use crate::accel::Bvh;
+        use crate::scene::Light;
+        use crate::testutil::scene_with;
+        // The lamp 1 above the mirror floor's centre.
+        let (floor, mirror) = mirror_floor();
         let (e, i) = (3.0f32, 2.0f32);
         let s = scene_with(
             vec![(floor, mirror)],
@@ -1072,21 +1080,9 @@ mod tests {
     #[test]
     fn sky_photons_aimed_at_a_mirror_floor_carry_what_the_sky_sends_it() {
         use crate::accel::Bvh;
-        use crate::scene::{BsdfKind, Light};
-        use crate::testutil::{scene_with, square};
-        let mirror = BsdfKind::Conductor {
-            specular_reflectance: Vec3::ONE,
-            fresnel: crate::scene::Fresnel::Schlick { f0: Vec3::ONE },
-        };
-        let mut floor = square(-1.0, -0.75, -1.0, -0.75, 0.0, false);
-        floor.indices.clear();
-        floor.positions.clear();
-        for j in 0..8 {
-            for i in 0..8 {
-                let (x, y) = (-1.0 + 0.25 * i as f32, -1.0 + 0.25 * j as f32);
-                floor.append(&square(x, x + 0.25, y, y + 0.25, 0.0, false));
-            }
-        }
+        use crate::scene::Light;
+        use crate::testutil::scene_with;
+        let (floor, mirror) = mirror_floor();
         let l = 1.5f32;
         let s = scene_with(
             vec![(floor, mirror)],
