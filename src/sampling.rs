@@ -122,6 +122,19 @@ pub fn sphere_cone(x: Vec3, c: Vec3, r: f32) -> Option<(Vec3, f32)> {
     Some((d / dist2.sqrt(), 2.0 * std::f32::consts::PI * one_minus_cos))
 }
 
+/// The solid angle of a cone of half-angle `half` (radians): 4 pi sin^2(half / 2), as
+/// 2 pi (1 - cos half) without its cancellation in narrow cones (the sun's disk).
+pub fn cone_solid_angle(half: f32) -> f32 {
+    4.0 * std::f32::consts::PI * (0.5 * half).sin().powi(2)
+}
+
+/// Whether the unit direction `dir` lies in the cone about the unit `axis` of solid
+/// angle `solid_angle`: |dir - axis|^2 = 2 (1 - cos) against solid_angle / pi, precise
+/// for narrow cones.
+pub fn in_cone(axis: Vec3, solid_angle: f32, dir: Vec3) -> bool {
+    (dir - axis).length_squared() <= solid_angle / std::f32::consts::PI
+}
+
 /// A unit direction uniform over the cone about the unit `axis` of solid angle
 /// `solid_angle` (at most 4 pi: the whole sphere).
 pub fn cone_direction(axis: Vec3, solid_angle: f32, u: Vec2) -> Vec3 {

@@ -24,7 +24,7 @@ use crate::emitters::{Emission, SampledLight};
 use crate::interaction::{offset_from, reflect, SurfacePoint, PARALLEL_FACES};
 use crate::mesh::{point_in_polygon, Piece, RadiosityMesh};
 use crate::sampling::{
-    cone_direction, cosine_direction, derive, shot_seed, sphere_cone, uniform3, Alias, Stream,
+    cone_direction, cosine_direction, derive, in_cone, shot_seed, sphere_cone, uniform3, Alias, Stream,
 };
 use crate::scene::{mean, Glossy, Rgb, Scene};
 use std::f32::consts::PI;
@@ -559,16 +559,9 @@ impl Aim {
             let pick = self.per_light.get(l)?.as_ref()?;
             let (gc, gr) = self.spheres[pick.pick(t[0], t[1], t[2])];
             let e = sky.emit_at(Vec2::new(u, v), Vec2::new(c, d), gc, gr)?;
-            let mut density = 0.0f64;
-            for (g, lanes) in self.lanes.iter().enumerate() {
-                let mut hits = lanes.holding(e.origin, e.dir);
-                while hits != 0 {
-                    let k = 4 * g + hits.trailing_zeros() as usize;
-                    hits &= hits - 1;
-                    density +=
-                        pick.probability(k) / (std::f64::consts::PI * f64::from(self.spheres[k].1).powi(2));
-                }
-            }
+            let density: f64 = SphereLanes::holding_all(&self.lanes, e.origin, e.dir)
+                .map(|k| pick.probability(k) / (std::f64::consts::PI * f64::from(self.spheres[k].1).powi(2)))
+                .sum();
             if !(density > 0.0) {
                 return None;
             }
@@ -595,19 +588,14 @@ impl Aim {
             // From an area light, the sun or the sky: only the cones that hold the
             // direction are built (building all 64 from every photon's origin was
             // most of the time of an area light's photons).
-            for (g, lanes) in self.lanes.iter().enumerate() {
-                let mut hits = lanes.holding(x, dir);
-                while hits != 0 {
-                    let k = 4 * g + hits.trailing_zeros() as usize;
-                    hits &= hits - 1;
-                    let p = pick.probability(k);
-                    if p > 0.0 {
-                        let (c, r) = self.spheres[k];
-                        pdf += match sphere_cone(x, c, r) {
-                            Some((_, omega)) => p / f64::from(omega),
-                            None => p / (4.0 * std::f64::consts::PI),
-                        };
-                    }
+            for k in SphereLanes::holding_all(&self.lanes, x, dir) {
+                let p = pick.probability(k);
+                if p > 0.0 {
+                    let (c, r) = self.spheres[k];
+                    pdf += match sphere_cone(x, c, r) {
+                        Some((_, omega)) => p / f64::from(omega),
+                        None => p / (4.0 * std::f64::consts::PI),
+                    };
                 }
             }
             return (pdf > 0.0).then_some((dir, pdf as f32));
@@ -619,9 +607,7 @@ impl Aim {
             }
             pdf += match *cone {
                 Some((axis, omega)) => {
-                    // |dir - axis|^2 = 2 (1 - cos): precise for narrow cones.
-                    let inside = (dir - axis).length_squared() <= omega / PI;
-                    if inside {
+                    if in_cone(axis, omega, dir) {
                         p / f64::from(omega)
                     } else {
                         0.0
@@ -685,6 +671,18 @@ impl SphereLanes {
         let dist2 = ax * ax + ay * ay + az * az;
         let ahead = t.cmpgt(Vec4::ZERO) & perp2.cmple(self.r2);
         (ahead | dist2.cmple(self.r2)).bitmask()
+    }
+
+    /// The indices of the spheres in `lanes` whose cones from `x` hold `dir`
+    /// ([`SphereLanes::holding`]), in order. From a point beyond the scene they are the
+    /// spheres the ray's line crosses.
+    fn holding_all(lanes: &[SphereLanes], x: Vec3, dir: Vec3) -> impl Iterator<Item = usize> + '_ {
+        lanes.iter().enumerate().flat_map(move |(g, four)| {
+            let hits = four.holding(x, dir);
+            (0..4)
+                .filter(move |j| hits & (1 << j) != 0)
+                .map(move |j| 4 * g + j)
+        })
     }
 }
 

@@ -449,6 +449,8 @@ impl Solver<'_> {
                 (hits as f32 / per as f32, now, u64::from(per))
             };
             let least = mean(unocc) * EDGE_SHARE;
+            // The sky's cells (a set is all of them or none).
+            let sky = points.first().is_some_and(|p| p.far);
             // The edge cells: index in `reached`, the share of rays that reached it and
             // its light's after their edge rays.
             let mut edges: Vec<(usize, f32, f32)> = Vec::new();
@@ -462,7 +464,7 @@ impl Solver<'_> {
                 // patch's cells keep the rule they were tuned with.
                 let edge = points[k].flat
                     && mean(e) > least
-                    && if points[k].far {
+                    && if sky {
                         let mut seen_vis = touching.of(k).iter().filter_map(|&j| first_vis(j));
                         seen_vis.next().is_some_and(|v0| seen_vis.any(|w| w != v0))
                     } else {
@@ -487,8 +489,7 @@ impl Solver<'_> {
             if var > (EDGE_ERROR * mean(occ)).powi(2) {
                 // All of the sky's edge cells, for the same reason: the partly hidden
                 // ones alone would leave dark a cell whose edge rays all missed.
-                let all = points.first().is_some_and(|p| p.far);
-                for &(i, _, light) in edges.iter().filter(|e| all || (e.1 > 0.0 && e.1 < 1.0)) {
+                for &(i, _, light) in edges.iter().filter(|e| sky || (e.1 > 0.0 && e.1 < 1.0)) {
                     rays += again(i, light, EDGE_RAYS_MORE, 2, &mut occ).2;
                 }
             }

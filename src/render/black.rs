@@ -106,8 +106,7 @@ fn probe(scene: &Scene, accel: &dyn Accel, camera: &Camera, x: f32, y: f32) -> P
             ray = sp.spawn(ray.dir, f32::INFINITY);
             continue;
         }
-        let emits = sp.front && scene.shapes[hit.shape as usize].emitter.is_some();
-        return if sp.front || bsdf.twosided || emits {
+        return if sp.front || bsdf.twosided {
             Probe::Front
         } else {
             Probe::Back

@@ -929,7 +929,7 @@ fn the_suns_disk_is_seen_directly_and_in_a_mirror_and_carries_its_irradiance() {
         );
         s.sun_disk = Some(SunDisk {
             light: 1,
-            cos_radius: (0.5f32 * 0.5358).to_radians().cos(),
+            solid_angle: crate::sampling::cone_solid_angle((0.5f32 * 0.5358).to_radians()),
         });
         s
     };

@@ -549,10 +549,10 @@ impl Scene {
         else {
             return Vec3::ZERO;
         };
-        if -direction.dot(dir.normalize()) < disk.cos_radius {
+        if !crate::sampling::in_cone(-*direction, disk.solid_angle, dir.normalize()) {
             return Vec3::ZERO;
         }
-        *irradiance / (std::f32::consts::TAU * (1.0 - disk.cos_radius))
+        *irradiance / disk.solid_angle
     }
 
     /// Whether shadow rays may pass through shape `s`: glass (a thin pane,
@@ -616,12 +616,13 @@ pub struct Scene {
 
 /// The disk of a sun that rays see: a `sunsky`'s sun, whose light is the
 /// [`Light::Directional`] `light`, seen as a disk of uniform radiance (its irradiance
-/// over its solid angle, as Mitsuba's default sun) within `cos_radius` of its
-/// direction. A plain `directional` has none: no ray sees it, as in Mitsuba.
+/// over its solid angle, as Mitsuba's default sun) in the cone of `solid_angle` about
+/// its direction. A plain `directional` has none: no ray sees it, as in Mitsuba.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SunDisk {
     /// Index into [`Scene::lights`] of the sun's directional light.
     pub light: u32,
-    /// The cosine of the disk's angular radius (half the `sun_aperture`).
-    pub cos_radius: f32,
+    /// The disk's solid angle ([`crate::sampling::cone_solid_angle`] of half the
+    /// `sun_aperture`).
+    pub solid_angle: f32,
 }

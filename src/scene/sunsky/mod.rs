@@ -27,8 +27,11 @@ use super::{environment_dir, Rgb, Texture};
 const CIE_Y_NORMALIZATION: f64 = 1.0 / 106.750_259_399_414_06;
 /// Mitsuba's factor from the sun model's spectral radiance to RGB.
 const SUN_SPECTRAL_TO_RGB: f64 = 467.069_280_386;
-/// The sun's half aperture (radians) the models were fitted for: 0.5358 degrees across.
-pub const SUN_HALF_APERTURE: f64 = std::f64::consts::PI * (0.5 * 0.5358) / 180.0;
+/// The sun's aperture (degrees across) the models were fitted for, and Mitsuba's
+/// default `sun_aperture`.
+pub const SUN_APERTURE: f64 = 0.5358;
+/// Half of [`SUN_APERTURE`], in radians.
+pub const SUN_HALF_APERTURE: f64 = std::f64::consts::PI * (0.5 * SUN_APERTURE) / 180.0;
 
 const TURBIDITIES: usize = 10;
 const ALBEDOS: usize = 2;

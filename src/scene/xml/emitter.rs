@@ -220,7 +220,7 @@ impl Loader {
         // is a directional light. It sets the disk that camera and mirror rays see, of
         // that irradiance over its solid angle. `complex_sun` changes only the disk's
         // look (limb darkening), not its mean.
-        let aperture = obj.float("sun_aperture")?.unwrap_or(SUN_APERTURE);
+        let aperture = obj.float("sun_aperture")?.unwrap_or(sunsky::SUN_APERTURE as f32);
         if !(aperture > 0.0 && aperture < 180.0) {
             return Err(obj.err_param(
                 "sun_aperture",
@@ -333,15 +333,12 @@ impl Loader {
             self.add_light(sun, id.map(|i| format!("{i} (sun)")));
             self.scene.sun_disk = Some(crate::scene::SunDisk {
                 light: self.scene.lights.len() as u32 - 1,
-                cos_radius: (0.5 * aperture).to_radians().cos(),
+                solid_angle: crate::sampling::cone_solid_angle((0.5 * aperture).to_radians()),
             });
         }
         Ok(())
     }
 }
-
-/// Mitsuba's default `sun_aperture` (degrees across): the sun seen from the earth.
-const SUN_APERTURE: f32 = 0.5358;
 
 /// The width of the image a `sunsky`'s sky is baked into (0.35 degrees a texel).
 const SKY_IMAGE_WIDTH: u32 = 1024;

@@ -503,9 +503,10 @@ fn sunsky_reads_as_a_sky_image_and_a_sun() {
     // its direction with its irradiance over its solid angle, and not 0.3 degrees off.
     let disk = l.scene.sun_disk.expect("a sunsky's sun has a disk");
     assert_eq!(disk.light, 1);
-    assert!((disk.cos_radius.acos().to_degrees() - 0.2679).abs() < 1e-3);
+    let radius = 2.0 * (disk.solid_angle / (4.0 * std::f32::consts::PI)).sqrt().asin();
+    assert!((radius.to_degrees() - 0.2679).abs() < 1e-3);
     let towards = Vec3::new(1.0, 1.0, 0.0).normalize();
-    let omega = std::f32::consts::TAU * (1.0 - disk.cos_radius);
+    let omega = disk.solid_angle;
     assert!(close(
         l.scene.sun_seen(towards) * omega,
         sunsky::rgb(model.sun_irradiance())
@@ -516,7 +517,8 @@ fn sunsky_reads_as_a_sky_image_and_a_sun() {
         r#"<emitter type="sunsky"><vector name="sun_direction" value="0, 0, 1"/><float name="sun_aperture" value="2"/></emitter>"#,
     ]);
     let disk = wide.scene.sun_disk.unwrap();
-    assert!((disk.cos_radius - 1f32.to_radians().cos()).abs() < 1e-7);
+    let one_degree = std::f32::consts::TAU * (1.0 - 1f64.to_radians().cos()) as f32;
+    assert!((disk.solid_angle - one_degree).abs() < 1e-4 * one_degree);
     // A plain `directional` has no disk.
     let plain = ok(&[r#"<emitter type="directional"><vector name="direction" value="0, 0, -1"/></emitter>"#]);
     assert_eq!(plain.scene.sun_disk, None);
