@@ -83,7 +83,13 @@ pub fn fresnel_conductor(cos_i: f32, eta: f32, k: f32) -> f32 {
     let rs = (t2 - t3) / (t2 + t3);
     let t4 = a2b2 * c2 + s4;
     let t5 = t3 * s2;
-    let rp = rs * (t4 - t5) / (t4 + t5);
+    // (0 / 0 at normal incidence where eta = k = 0, as Mitsuba's data gives
+    // AlSb's red channel: there p is s.)
+    let rp = if t4 + t5 > 0.0 {
+        rs * (t4 - t5) / (t4 + t5)
+    } else {
+        rs
+    };
     0.5 * (rs + rp)
 }
 
@@ -245,6 +251,11 @@ mod tests {
     fn fresnel_and_the_lobe_match_mitsuba() {
         // At normal incidence, ((eta - 1)^2 + k^2) / ((eta + 1)^2 + k^2): 0.04 for glass.
         assert!((fresnel_conductor(1.0, 1.5, 0.0) - 0.04).abs() < 1e-6);
+        // eta = k = 0 (Mitsuba's AlSb in red) reflects everything, at every angle,
+        // where the formula's p term is 0 / 0 at normal incidence.
+        for c in [1.0, 0.5, 0.0] {
+            assert_eq!(fresnel_conductor(c, 0.0, 0.0), 1.0, "{c}");
+        }
         for (c, f) in [(1.0, 0.928_047_5), (0.5, 0.913_666), (0.1, 0.844_957_9)] {
             let v = fresnel_conductor(c, 1.65746, 9.22387);
             assert!(near(v, f, 1e-5), "{c}: {v} vs {f}");

@@ -498,9 +498,9 @@ impl Loader {
     }
 
     /// A conductor's Fresnel term, as `conductor` and `roughconductor` read it: from
-    /// `eta` and `k` per channel (Mitsuba 0.6's `ext_eta` divides both), or a named
-    /// `material` by Schlick's curve from its reflectance at normal incidence (the one
-    /// thing radtrace knows of it; a warning), or 1 for `none`, the default.
+    /// `eta` and `k` per channel, or those of a named `material` as Mitsuba 3's RGB
+    /// variants read them (Mitsuba 0.6's `ext_eta` divides both), or 1 for `none`,
+    /// the default. A name Mitsuba has no data for fails, as in Mitsuba.
     fn conductor_fresnel(&mut self, s: Src, c: Node, obj: &Obj) -> Result<Fresnel> {
         let ext = match obj.scalar("ext_eta")? {
             Some(e) if e > 0.0 => e,
@@ -522,27 +522,20 @@ impl Loader {
         }
         Ok(match material.as_deref().unwrap_or("none") {
             "none" => Fresnel::Schlick { f0: Vec3::ONE },
-            m => match parse::conductor_f0(m) {
-                Some(f0) => {
-                    self.warn(
-                        s,
-                        c,
+            m => {
+                let (eta, k) = parse::conductor_ior(m).ok_or_else(|| {
+                    obj.err_param(
+                        "material",
                         format!(
-                            "conductor material '{m}': radtrace knows only its reflectance at \
-                             normal incidence {f0}, and follows Schlick's curve from it"
+                            "= '{m}' is not a conductor Mitsuba knows (e.g. 'Au', 'Cu', 'Al', 'Ag', 'Cr')"
                         ),
-                    );
-                    Fresnel::Schlick { f0 }
+                    )
+                })?;
+                Fresnel::Conductor {
+                    eta: eta / ext,
+                    k: k / ext,
                 }
-                None => {
-                    self.warn(
-                        s,
-                        c,
-                        format!("conductor material '{m}' is not known to radtrace: reflectance 1"),
-                    );
-                    Fresnel::Schlick { f0: Vec3::ONE }
-                }
-            },
+            }
         })
     }
 

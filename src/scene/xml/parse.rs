@@ -218,24 +218,72 @@ pub fn named_ior(name: &str) -> Option<f32> {
     TABLE.iter().find(|(k, _)| *k == n).map(|(_, v)| *v)
 }
 
-/// Approximate normal-incidence reflectance (linear RGB) of Mitsuba's conductor
-/// materials, from the usual real-time rendering tables.
-pub fn conductor_f0(material: &str) -> Option<Vec3> {
-    const TABLE: &[(&str, [f32; 3])] = &[
-        ("Ag", [0.972, 0.960, 0.915]),
-        ("Al", [0.913, 0.922, 0.924]),
-        ("Au", [1.000, 0.782, 0.344]),
-        ("Cu", [0.955, 0.638, 0.538]),
-        ("Cr", [0.549, 0.556, 0.554]),
-        ("Hg", [0.781, 0.780, 0.778]),
-        ("Ni_palik", [0.660, 0.609, 0.526]),
-        ("Ti", [0.542, 0.497, 0.449]),
-        ("Fe", [0.562, 0.565, 0.578]),
+/// The complex index of refraction (`eta`, `k`, linear RGB) of a conductor
+/// `material` Mitsuba 3 names, as its RGB variants read it (the spectral data of
+/// its `data/ior` files integrated to sRGB); `None` for a name Mitsuba does not know
+/// (it fails to load such a file). Names are case-sensitive, as Mitsuba's file
+/// names; the `_palik` entries are the same data under another name.
+pub fn conductor_ior(material: &str) -> Option<(Vec3, Vec3)> {
+    type Entry = (&'static str, [f32; 3], [f32; 3]);
+    #[rustfmt::skip]
+    const TABLE: &[Entry] = &[
+        ("a-C", [2.94405, 2.22714, 1.96816], [0.887465, 0.799299, 0.81529]),
+        ("Ag", [0.155276, 0.116728, 0.138388], [4.82835, 3.12222, 2.1469]),
+        ("Al", [1.6575, 0.880405, 0.521244], [9.22381, 6.2695, 4.837]),
+        ("AlAs", [3.6053, 3.23294, 2.21632], [0.000679437, 0.0, 0.00751271]),
+        ("AlSb", [0.0, 4.13937, 4.66925], [0.0, 0.0940091, 1.30057]),
+        ("Au", [0.143036, 0.375307, 1.44205], [3.983, 2.38556, 1.60336]),
+        ("Be", [4.18501, 3.18503, 2.78406], [3.83547, 3.01012, 2.86899]),
+        ("Cr", [4.36967, 2.91651, 1.6549], [5.20655, 4.23131, 3.7547]),
+        ("CsI", [2.1449, 1.70232, 1.66243], [0.0, 0.0, 0.0]),
+        ("Cu", [0.201005, 0.92375, 1.10222], [3.91326, 2.45305, 2.14209]),
+        ("Cu_palik", [0.213229, 0.919715, 1.10241], [3.92187, 2.45733, 2.13658]),
+        ("Cu2O", [3.55177, 2.94987, 2.75188], [0.114207, 0.193897, 0.606134]),
+        ("CuO", [3.24754, 2.44781, 2.21022], [0.52109, 0.570031, 0.722179]),
+        ("d-C", [2.70872, 2.31883, 2.2289], [0.0, 0.0, 0.0]),
+        ("Hg", [2.39894, 1.44003, 0.90957], [6.32759, 4.37192, 3.42176]),
+        ("HgTe", [4.77904, 3.2312, 2.6599], [1.63161, 1.58081, 1.72929]),
+        ("Ir", [3.0863, 2.08219, 1.61791], [5.59215, 4.06709, 3.26731]),
+        ("K", [0.0640432, 0.0464098, 0.0381849], [2.1042, 1.34894, 0.913126]),
+        ("Li", [0.265791, 0.195618, 0.220949], [3.54015, 2.31112, 1.66861]),
+        ("MgO", [2.08958, 1.65072, 1.59488], [4.3327e-12, 0.0, 2.49865e-11]),
+        ("Mo", [4.48397, 3.52513, 2.77631], [4.11144, 3.42083, 3.15061]),
+        ("Na_palik", [0.0602694, 0.0561409, 0.0619884], [3.17927, 2.11249, 1.57904]),
+        ("Nb", [3.42007, 2.79009, 2.39563], [3.44139, 2.73767, 2.57975]),
+        ("Ni_palik", [2.3673, 1.66337, 1.46708], [4.49881, 3.05015, 2.34544]),
+        ("Rh", [2.58579, 1.86022, 1.55426], [6.78226, 4.70299, 3.97607]),
+        ("Se", [4.05831, 2.84294, 2.82085], [0.75405, 0.638444, 0.521808]),
+        ("Se-e", [5.72285, 4.16574, 4.08134], [0.871136, 1.10516, 1.56532]),
+        ("SiC", [3.17234, 2.52597, 2.47937], [7.53766e-07, 0.0, 1.01925e-05]),
+        ("SnTe", [4.52425, 1.98164, 1.28159], [0.0, 0.0, 0.0]),
+        ("Ta", [2.06272, 2.39294, 2.62793], [2.40836, 1.74149, 1.94703]),
+        ("Te", [7.39023, 4.4821, 2.63711], [3.25602, 3.52706, 3.29205]),
+        ("Te-e", [7.50891, 4.29643, 2.36999], [5.58393, 4.94721, 3.99759]),
+        ("ThF4", [1.83071, 1.44223, 1.38765], [0.0, 0.0, 0.0]),
+        ("TiC", [3.70053, 2.83742, 2.58229], [3.26564, 2.35159, 2.17279]),
+        ("TiN", [1.64845, 1.15052, 1.37982], [3.36833, 1.9435, 1.10207]),
+        ("TiO2", [3.45661, 2.80174, 2.90517], [0.000105265, 0.0, 0.000652887]),
+        ("TiO2-e", [3.10656, 2.51317, 2.58244], [2.97516e-05, 0.0, 0.000182698]),
+        ("V_palik", [4.27758, 3.51295, 2.76107], [3.4913, 2.88945, 3.11152]),
+        ("VC", [3.65757, 2.75274, 2.53267], [3.0683, 2.19869, 1.96319]),
+        ("VN", [2.8656, 2.11919, 1.94009], [3.03224, 2.05612, 1.61631]),
+        ("W", [4.37082, 3.30025, 2.99841], [3.50064, 2.60487, 2.27323]),
     ];
+    // Mitsuba's `_palik` files repeat the plain names' data (but copper's).
+    const ALIASES: &[&str] = &[
+        "a-C", "AlAs", "AlSb", "Be", "CsI", "Cu2O", "CuO", "d-C", "Hg", "HgTe", "Ir", "K", "Li", "MgO", "Mo",
+        "Nb", "Rh", "Se", "Se-e", "SiC", "SnTe", "Ta", "Te", "Te-e", "ThF4", "TiC", "TiN", "TiO2", "TiO2-e",
+        "VC", "VN",
+    ];
+    let m = material.trim();
+    let name = match m.strip_suffix("_palik") {
+        Some(base) if ALIASES.contains(&base) => base,
+        _ => m,
+    };
     TABLE
         .iter()
-        .find(|(k, _)| *k == material.trim())
-        .map(|(_, v)| Vec3::from_array(*v))
+        .find(|(k, _, _)| *k == name)
+        .map(|(_, eta, k)| (Vec3::from_array(*eta), Vec3::from_array(*k)))
 }
 
 #[cfg(test)]
@@ -316,6 +364,16 @@ mod tests {
         assert_eq!(named_ior("acrylic glass"), Some(1.49));
         assert_eq!(named_ior("air"), Some(1.000277));
         assert_eq!(named_ior("unobtainium"), None);
-        assert!(conductor_f0("Au").unwrap().x > 0.99);
+        // Mitsuba 3.9's RGB figures; the `_palik` names as Mitsuba's files alias them.
+        let (eta, k) = conductor_ior("Au").unwrap();
+        assert_eq!(eta, Vec3::new(0.143036, 0.375307, 1.44205));
+        assert_eq!(k, Vec3::new(3.983, 2.38556, 1.60336));
+        assert_eq!(conductor_ior("Hg_palik"), conductor_ior("Hg"));
+        assert_ne!(conductor_ior("Cu_palik"), conductor_ior("Cu"));
+        assert_eq!(conductor_ior("Ni_palik").unwrap().1.x, 4.49881);
+        // Names Mitsuba has no file for.
+        for bad in ["Fe", "Ti", "Au_palik", "au", "Ni", "none"] {
+            assert_eq!(conductor_ior(bad), None, "{bad}");
+        }
     }
 }
