@@ -339,12 +339,14 @@ impl AreaEmitter {
     /// The unoccluded irradiance at `p` (unit normal `n`) in closed form: pi times
     /// the radiance times Lambert's point-to-polygon form factor of each triangle that
     /// `p` sees the front of (of the parallelogram, when the emitter is one), each
-    /// clipped to the hemisphere above `p`. For emitters of one radiance made of at
-    /// most [`CLOSED_FORM_TRIANGLES`] triangles; `None` for others (exact spheres and
-    /// disks, radiant patches, whose radiance varies, and finely tessellated lights).
+    /// clipped to the hemisphere above `p`; an exact sphere's cap seen from outside,
+    /// clipped alike. For emitters of one radiance made of at most
+    /// [`CLOSED_FORM_TRIANGLES`] triangles, or exact spheres; `None` for others (exact
+    /// disks, a point inside a sphere, radiant patches, whose radiance varies, and
+    /// finely tessellated lights).
     pub fn unoccluded_irradiance(&self, p: Vec3, n: Vec3) -> Option<Rgb> {
-        if let Some(cap) = self.visible_sphere(p) {
-            return cap.irradiance(n).map(|e| self.radiance * e);
+        if let Some(e) = self.sphere_irradiance(p, n) {
+            return Some(e);
         }
         if self.exact.is_some()
             || !self.corner_radiance.is_empty()
@@ -450,6 +452,21 @@ impl AreaEmitter {
         self.light_sample(p, point, normal, radiance)
     }
 
+    /// The unoccluded irradiance at `p` (unit normal `n`) of this emitter if it is an
+    /// exact sphere of one radiance emitting outwards and `p` is outside it: its cap
+    /// above the horizon in closed form ([`SphereCap::irradiance`]).
+    pub fn sphere_irradiance(&self, p: Vec3, n: Vec3) -> Option<Rgb> {
+        if !self.corner_radiance.is_empty() {
+            return None;
+        }
+        Some(self.radiance * self.visible_sphere(p)?.irradiance(n))
+    }
+
+    /// Whether this emitter is an exact sphere of one radiance emitting outwards.
+    pub fn is_sphere(&self) -> bool {
+        self.sphere.is_some() && self.corner_radiance.is_empty()
+    }
+
     /// The sphere (emitting outwards) this emitter is, if `p` is outside it.
     fn visible_sphere(&self, p: Vec3) -> Option<SphereCap> {
         let (centre, radius) = self.sphere?;
@@ -550,22 +567,31 @@ impl SphereCap {
         })
     }
 
-    /// A sphere of unit radiance's irradiance at a surface of unit normal `n` where
-    /// it lies wholly above the surface's horizon: pi sin^2(alpha) cos(theta), alpha
-    /// the cone's half angle, theta the angle to its axis (Lambert); `None` where the
-    /// horizon cuts it, 0 where it is below.
-    fn irradiance(&self, n: Vec3) -> Option<f32> {
-        let cos_t = n.dot(self.axis);
+    /// A sphere of unit radiance's irradiance at a surface of unit normal `n`: pi
+    /// sin^2(alpha) cos(theta) where it lies wholly above the surface's horizon (alpha
+    /// the cone's half angle, theta the angle to its axis; Lambert), 0 where wholly
+    /// below, and where the horizon cuts it, the cut cap's closed form (Snyder 1996,
+    /// "Area light sources for real-time graphics"): with x = cot(alpha) and
+    /// y = -x cot(theta), sin^2(alpha) (cos(theta) acos(y) - x sin(theta) sqrt(1 - y^2))
+    /// + atan(sin(theta) sqrt(1 - y^2) / x).
+    fn irradiance(&self, n: Vec3) -> f32 {
+        let cos_t = n.dot(self.axis).clamp(-1.0, 1.0);
         let one_minus_cos_a = self.solid_angle / (2.0 * std::f32::consts::PI);
         let cos_a = 1.0 - one_minus_cos_a;
-        let sin_a = (one_minus_cos_a * (2.0 - one_minus_cos_a)).max(0.0).sqrt();
+        let sin2_a = (one_minus_cos_a * (2.0 - one_minus_cos_a)).max(0.0);
+        let sin_a = sin2_a.sqrt();
         // Wholly above: theta <= pi/2 - alpha, i.e. cos(theta) >= sin(alpha).
         if cos_t >= sin_a {
-            Some(std::f32::consts::PI * (1.0 - cos_a * cos_a) * cos_t)
+            std::f32::consts::PI * sin2_a * cos_t
         } else if cos_t <= -sin_a {
-            Some(0.0)
+            0.0
         } else {
-            None
+            let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+            let x = cos_a / sin_a.max(1e-12);
+            let y = (-x * cos_t / sin_t.max(1e-12)).clamp(-1.0, 1.0);
+            let w = sin_t * (1.0 - y * y).max(0.0).sqrt();
+            let e = sin2_a * (cos_t * y.acos() - x * w) + (w / x.max(1e-12)).atan();
+            e.max(0.0)
         }
     }
 }
@@ -1006,7 +1032,8 @@ mod tests {
             .quadric
             .unwrap();
         // A sphere of radius R at distance d wholly above the horizon: pi (R/d)^2
-        // cos(theta) (Lambert); cut by the horizon: no closed form; below it: 0.
+        // cos(theta) (Lambert); below it: 0; cut by the horizon: the cut cap's
+        // closed form, against a quadrature of the cosine over the cap's directions.
         let sphere = AreaEmitter::exact(q, Vec3::ONE);
         let e = sphere.unoccluded_irradiance(Vec3::ZERO, Vec3::Y).unwrap().x;
         let want = std::f32::consts::PI * (0.5f32 / 3.0).powi(2);
@@ -1014,7 +1041,22 @@ mod tests {
         let tilted = Vec3::new(0.6, 0.8, 0.0);
         let e = sphere.unoccluded_irradiance(Vec3::ZERO, tilted).unwrap().x;
         assert!((e / (want * 0.8) - 1.0).abs() < 1e-4, "{e}");
-        assert_eq!(sphere.unoccluded_irradiance(Vec3::ZERO, Vec3::X), None);
+        let (axis, omega) = crate::sampling::sphere_cone(Vec3::ZERO, Vec3::Y * 3.0, 0.5).unwrap();
+        let (m, k) = (2048, 512);
+        for angle in [75.0f32, 85.0, 90.0, 95.0, 99.0] {
+            let t = angle.to_radians();
+            let n = Vec3::new(t.sin(), t.cos(), 0.0);
+            let mut sum = 0.0f64;
+            for i in 0..m {
+                for j in 0..k {
+                    let u = Vec2::new((i as f32 + 0.5) / m as f32, (j as f32 + 0.5) / k as f32);
+                    sum += f64::from(crate::sampling::cone_direction(axis, omega, u).dot(n).max(0.0));
+                }
+            }
+            let want = (sum / f64::from(m * k) * f64::from(omega)) as f32;
+            let e = sphere.unoccluded_irradiance(Vec3::ZERO, n).unwrap().x;
+            assert!((e - want).abs() < 1e-3 * std::f32::consts::PI * (0.5f32 / 3.0).powi(2), "{angle}: {e} vs {want}");
+        }
         assert_eq!(
             sphere.unoccluded_irradiance(Vec3::ZERO, -Vec3::Y),
             Some(Vec3::ZERO)
