@@ -276,7 +276,7 @@ fn run_solve(scene: &Scene, bvh: &Bvh, st: &SolveSettings, quiet: bool) -> Resul
             s.patches,
             match s.refined_patches {
                 0 => String::new(),
-                n => format!(" ({n} holding an object, at half the mesh size)"),
+                n => format!(" ({n} meshed finer: holding an object or near a small light)"),
             },
             s.elements,
             s.vertices,

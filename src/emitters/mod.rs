@@ -1055,7 +1055,10 @@ mod tests {
             }
             let want = (sum / f64::from(m * k) * f64::from(omega)) as f32;
             let e = sphere.unoccluded_irradiance(Vec3::ZERO, n).unwrap().x;
-            assert!((e - want).abs() < 1e-3 * std::f32::consts::PI * (0.5f32 / 3.0).powi(2), "{angle}: {e} vs {want}");
+            assert!(
+                (e - want).abs() < 1e-3 * std::f32::consts::PI * (0.5f32 / 3.0).powi(2),
+                "{angle}: {e} vs {want}"
+            );
         }
         assert_eq!(
             sphere.unoccluded_irradiance(Vec3::ZERO, -Vec3::Y),

@@ -18,7 +18,7 @@
 //! patches (floors, walls) have elements small beside what stands on them and are
 //! left alone.
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 
 use rayon::prelude::*;
 
@@ -32,7 +32,7 @@ use crate::scene::Scene;
 /// elements across rests on it)...
 const MIN_ELEMENTS: u32 = 4;
 /// ...and at most this many (a larger patch's elements are small beside what it holds).
-const MAX_ELEMENTS: u32 = 64;
+pub(super) const MAX_ELEMENTS: u32 = 64;
 /// Share of the patch's area over which another surface must come within a mesh size
 /// (along the normal), or which lies under a closed object: a teapot on a 1.2 x 0.8 m
 /// table covers 7 %, a table's four legs under its top 1 %...
@@ -43,15 +43,16 @@ const MIN_SHARE: f32 = 1.0 / 32.0;
 const MAX_SHARE: f32 = 0.5;
 /// Vertices the refinement may add, as a share of the mesh's (the conference room's
 /// 281 patches that hold something add 4 %)...
-const BUDGET: f32 = 0.25;
+pub(super) const BUDGET: f32 = 0.25;
 /// ...or this many, in a small scene.
-const MIN_BUDGET: f32 = 4096.0;
+pub(super) const MIN_BUDGET: f32 = 4096.0;
 
 impl RadiosityMesh {
     /// The patches to mesh at half the mesh size (see the module text), by shape and
-    /// first polygon; the most covered first while the vertex budget lasts.
-    /// Deterministic: fixed sample points, no seed.
-    pub(super) fn holding(&self, scene: &Scene, accel: &dyn Accel) -> HashSet<(u32, u32)> {
+    /// first polygon, with that fraction (1/2); the most covered first while the
+    /// vertex budget lasts ([`BUDGET`], less `used`). Deterministic: fixed sample
+    /// points, no seed.
+    pub(super) fn holding(&self, scene: &Scene, accel: &dyn Accel, used: f32) -> HashMap<(u32, u32), f32> {
         // The pieces of a surface cut into several share its first polygon: they are
         // never refined (the whole surface would be).
         let cut: HashSet<(u32, u32)> = self
@@ -74,8 +75,8 @@ impl RadiosityMesh {
             .filter(|&(_, share)| (MIN_SHARE..=MAX_SHARE).contains(&share))
             .collect();
         near.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
-        let mut budget = (BUDGET * self.vertices.len() as f32).max(MIN_BUDGET);
-        let mut fine = HashSet::new();
+        let mut budget = (BUDGET * self.vertices.len() as f32).max(MIN_BUDGET) - used;
+        let mut fine = HashMap::new();
         for (p, _) in near {
             let mp = &self.patches[p as usize];
             // Half the size: about four times the vertices, on both sides of a
@@ -86,7 +87,7 @@ impl RadiosityMesh {
                 continue;
             }
             budget -= added;
-            fine.insert((mp.shape, mp.local));
+            fine.insert((mp.shape, mp.local), 0.5);
         }
         fine
     }

@@ -44,11 +44,16 @@ const REACH: f32 = 0.5;
 
 impl RadiosityMesh {
     /// The mesh the solver and a solution file use: [`RadiosityMesh::build`], again
-    /// with the patches that hold a small object at half the mesh size if there are
-    /// any (see [`super::contact`]), then [`RadiosityMesh::cover`].
+    /// with the small patches near a small light (see [`super::near_light`]) and
+    /// those that hold a small object (see [`super::contact`]) meshed finer if there
+    /// are any, then [`RadiosityMesh::cover`].
     pub fn build_covered(scene: &Scene, mesh_size: f32, accel: &dyn Accel) -> Self {
         let mut mesh = Self::build(scene, mesh_size);
-        let fine = mesh.holding(scene, accel);
+        let (mut fine, used) = mesh.near_light(scene);
+        for (k, f) in mesh.holding(scene, accel, used) {
+            let e = fine.entry(k).or_insert(f);
+            *e = e.min(f);
+        }
         if !fine.is_empty() {
             mesh = Self::build_refined(scene, mesh_size, &fine);
         }

@@ -23,6 +23,7 @@ mod cells;
 mod contact;
 mod cover;
 mod lattice;
+mod near_light;
 mod pieces;
 mod size;
 
@@ -151,8 +152,8 @@ pub struct RadiosityMesh {
     /// Number of front patches: `patches[..front_patches]` follow the scene's shapes
     /// and patches in order; the back twins of two-sided patches come after them.
     pub front_patches: u32,
-    /// Front patches meshed at half the mesh size because they hold a small object
-    /// (see [`contact`]).
+    /// Front patches meshed finer than the mesh size: they hold a small object (see
+    /// [`contact`]) or lie near a small light (see [`near_light`]).
     pub refined: u32,
     /// Surfaces too large for one patch, cut into several (see [`SPLIT_ABOVE`]), by
     /// the index of their first patch.
@@ -520,14 +521,18 @@ impl RadiosityMesh {
     /// diffuse reflectance that emits nothing keeps no radiosity: it gets the fewest
     /// vertices that still locate a hit (one element per patch).
     pub fn build(scene: &Scene, mesh_size: f32) -> Self {
-        Self::build_refined(scene, mesh_size, &std::collections::HashSet::new())
+        Self::build_refined(scene, mesh_size, &std::collections::HashMap::new())
     }
 
     /// [`RadiosityMesh::build`], with the patches named in `fine` (by shape and the
     /// index of their first polygon: [`MeshPatch::shape`], [`MeshPatch::local`])
-    /// meshed at half the mesh size (see [`contact`]). Polygons merge into patches
-    /// as at the full size, so the patches are the same.
-    fn build_refined(scene: &Scene, mesh_size: f32, fine: &std::collections::HashSet<(u32, u32)>) -> Self {
+    /// meshed at that fraction of the mesh size (see [`contact`] and [`near_light`]).
+    /// Polygons merge into patches as at the full size, so the patches are the same.
+    fn build_refined(
+        scene: &Scene,
+        mesh_size: f32,
+        fine: &std::collections::HashMap<(u32, u32), f32>,
+    ) -> Self {
         let mut mesh = RadiosityMesh {
             mesh_size,
             patches: Vec::new(),
@@ -596,11 +601,7 @@ impl RadiosityMesh {
                 // (A surface cut into pieces keeps the mesh size: `fine` names the
                 // cluster by its first polygon, which all its pieces share.)
                 let base = size;
-                let size = if fine.contains(&(si as u32, members[0])) {
-                    0.5 * size
-                } else {
-                    size
-                };
+                let size = fine.get(&(si as u32, members[0])).map_or(size, |f| f * size);
                 cluster_patch.push(mesh.patches.len() as u32 - first_patch);
                 let (reflectance, opacity) = if tris_of.is_empty() {
                     (reflectance, 1.0)

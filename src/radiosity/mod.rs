@@ -204,7 +204,8 @@ pub struct SolveStats {
     pub vertices: u64,
     /// Patches.
     pub patches: u64,
-    /// Patches meshed at half the mesh size: they hold a small object.
+    /// Patches meshed finer than the mesh size: they hold a small object, or lie
+    /// near a small light.
     #[serde(default)]
     pub refined_patches: u64,
     /// Power emitted by all light sources (mean of RGB, W).

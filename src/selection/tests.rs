@@ -348,13 +348,15 @@ fn the_gradient_criterion_passes_a_light_whose_falloff_a_curved_patch_flattens()
 /// shadow anywhere (the visibility spread is 0), but the elements' interpolation of
 /// its light is far off at their centres, so the gradient criterion ray traces it. A
 /// point light 3 m over another floor lights it smoothly: left to the mesh. The
-/// interpolation error falls as the elements shrink.
+/// interpolation error falls as the elements shrink. (The lamp's floor is 6 m
+/// across, over the elements a patch near a light is meshed finer at, see
+/// `mesh::near_light`.)
 #[test]
 fn a_lamp_close_to_a_floor_is_ray_traced_where_its_light_falls_off_within_an_element() {
     let rho = Vec3::splat(0.5);
     let s = scene(
         vec![
-            (square(0.0, 4.0, 0.0, 4.0, 0.0, false), rho),
+            (square(0.0, 6.0, 0.0, 6.0, 0.0, false), rho),
             (square(20.0, 24.0, 0.0, 4.0, 0.0, false), rho),
             (square(0.3, 0.5, 0.3, 0.5, 0.12, true), Vec3::ZERO),
         ],

@@ -55,7 +55,8 @@ pub struct SolveFigures {
     pub tolerance: f32,
     /// Patches.
     pub patches: u64,
-    /// Patches meshed at half the mesh size (they hold a small object).
+    /// Patches meshed finer than the mesh size (they hold a small object, or lie
+    /// near a small light).
     pub refined_patches: u64,
     /// Mesh elements.
     pub elements: u64,

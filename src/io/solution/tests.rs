@@ -77,7 +77,7 @@ fn box_scene() -> Scene {
             },
         ],
         lights: vec![Light::Point {
-            position: Vec3::new(0.1, 0.2, 0.6),
+            position: Vec3::new(0.1, 0.2, 0.45),
             intensity: Vec3::new(3.0, 2.0, 1.0),
         }],
         light_ids: vec![],
@@ -236,6 +236,11 @@ fn fingerprint_is_stable_and_sees_what_matters() {
     small.shapes.remove(0);
     small.shapes[0].bsdf = 0;
     small.bsdfs.truncate(1);
+    // (The light where the box had it when the value was pinned.)
+    small.lights = vec![Light::Point {
+        position: Vec3::new(0.1, 0.2, 0.6),
+        intensity: Vec3::new(3.0, 2.0, 1.0),
+    }];
     assert_eq!(
         scene_fingerprint(&small),
         16_009_516_134_389_156_963,
