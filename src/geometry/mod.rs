@@ -343,3 +343,90 @@ pub fn cuts_for(t: &[Vec3; 3], size: f32, max: u32) -> u32 {
         1
     }
 }
+
+/// The point of triangle `t` nearest to `p`: inside it, on an edge or at a corner,
+/// by the regions of the triangle's plane that `p`'s projection falls in.
+pub fn closest_on_triangle(p: Vec3, t: [Vec3; 3]) -> Vec3 {
+    let [a, b, c] = t;
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = va + vb + vc;
+    if !(denom.abs() > 0.0) {
+        // A degenerate triangle: its nearest corner.
+        return [a, b, c]
+            .into_iter()
+            .min_by(|x, y| (*x - p).length_squared().total_cmp(&(*y - p).length_squared()))
+            .unwrap_or(a);
+    }
+    a + ab * (vb / denom) + ac * (vc / denom)
+}
+
+#[cfg(test)]
+mod closest_tests {
+    use super::*;
+
+    /// Against a brute-force search over a fine grid of the triangle's points.
+    #[test]
+    fn the_closest_point_of_a_triangle_is_the_nearest_of_its_points() {
+        let t = [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(2.0, 0.2, 0.0),
+            Vec3::new(0.5, 1.5, 0.3),
+        ];
+        let n = 200;
+        let grid: Vec<Vec3> = (0..=n)
+            .flat_map(|i| (0..=n - i).map(move |j| (i, j)))
+            .map(|(i, j)| {
+                t[0] + (t[1] - t[0]) * (i as f32 / n as f32) + (t[2] - t[0]) * (j as f32 / n as f32)
+            })
+            .collect();
+        for p in [
+            Vec3::new(0.7, 0.5, 1.0),
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(3.0, 0.0, -0.5),
+            Vec3::new(1.5, 1.5, 0.2),
+            Vec3::new(0.0, 2.0, 0.0),
+            Vec3::new(1.0, -0.5, 0.1),
+            Vec3::new(-0.5, 0.8, 0.0),
+        ] {
+            let got = closest_on_triangle(p, t);
+            let best = grid
+                .iter()
+                .map(|q| (*q - p).length())
+                .fold(f32::INFINITY, f32::min);
+            assert!(
+                ((got - p).length() - best).abs() < 0.01,
+                "{p}: {got} at {} vs {best}",
+                (got - p).length()
+            );
+        }
+        // Degenerate: all corners in a line.
+        let line = [Vec3::ZERO, Vec3::X, Vec3::X * 2.0];
+        assert!((closest_on_triangle(Vec3::new(3.0, 1.0, 0.0), line) - Vec3::X * 2.0).length() < 1e-6);
+    }
+}

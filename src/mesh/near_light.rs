@@ -17,6 +17,7 @@ use glam::Vec3;
 
 use super::contact::{BUDGET, MAX_ELEMENTS, MIN_BUDGET};
 use super::RadiosityMesh;
+use crate::geometry::closest_on_triangle;
 use crate::scene::{Light, Scene};
 
 /// The fraction of the mesh size a patch near a light is meshed at.
@@ -24,7 +25,8 @@ const FRACTION: f32 = 0.25;
 
 impl RadiosityMesh {
     /// The patches to mesh finer (see the module text), by shape and first polygon,
-    /// with the fraction of the mesh size, and the vertices that adds (about).
+    /// with the fraction of the mesh size, and the vertices that adds (about). A
+    /// patch's distance to a light is its pieces' nearest point's.
     pub(super) fn near_light(&self, scene: &Scene) -> (HashMap<(u32, u32), f32>, f32) {
         let size = self.mesh_size;
         // The lights smaller than a mesh size, as spheres round them; the area
@@ -66,10 +68,14 @@ impl RadiosityMesh {
                 {
                     return None;
                 }
-                let first = mp.first_vertex as usize;
-                let d = self.vertices[first..first + mp.vertex_count as usize]
+                let d = self
+                    .pieces(p)
                     .iter()
-                    .flat_map(|v| lights.iter().map(move |&(c, r)| (v.q - c).length() - r))
+                    .flat_map(|piece| {
+                        lights
+                            .iter()
+                            .map(move |&(c, r)| (closest_on_triangle(c, piece.corners) - c).length() - r)
+                    })
                     .fold(f32::INFINITY, f32::min);
                 (d < size).then_some((p, d))
             })
