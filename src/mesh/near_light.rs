@@ -11,7 +11,9 @@
 //! [`FRACTION`] of it, the nearest first, within the vertex budget that the patches
 //! holding an object share ([`BUDGET`]).
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
+
+use rayon::prelude::*;
 
 use glam::Vec3;
 
@@ -32,12 +34,12 @@ impl RadiosityMesh {
         // The lights smaller than a mesh size, as spheres round them; the area
         // lights' own shapes are not refined.
         let mut lights: Vec<(Vec3, f32)> = Vec::new();
-        let mut emitters: Vec<u32> = Vec::new();
+        let mut emitters: HashSet<u32> = HashSet::new();
         for l in &scene.lights {
             match *l {
                 Light::Point { position, .. } | Light::Spot { position, .. } => lights.push((position, 0.0)),
                 Light::Area { shape, .. } => {
-                    emitters.push(shape);
+                    emitters.insert(shape);
                     let Some((lo, hi)) = scene.shapes[shape as usize].mesh.bounds() else {
                         continue;
                     };
@@ -52,13 +54,16 @@ impl RadiosityMesh {
         if lights.is_empty() || !(size.is_finite() && size > 0.0) {
             return (HashMap::new(), 0.0);
         }
-        let cut: std::collections::HashSet<(u32, u32)> = self
+        let cut: HashSet<(u32, u32)> = self
             .splits
             .keys()
             .map(|&p| (self.patches[p as usize].shape, self.patches[p as usize].local))
             .collect();
-        // Per candidate patch: its distance to the nearest light.
+        // Per candidate patch: its distance to the nearest light. Only the lights
+        // near the box round its vertices (within two mesh sizes: a curved patch
+        // bulges between them) are measured against its pieces.
         let mut near: Vec<(u32, f32)> = (0..self.front_patches)
+            .into_par_iter()
             .filter_map(|p| {
                 let mp = &self.patches[p as usize];
                 if mp.element_count > MAX_ELEMENTS
@@ -68,11 +73,25 @@ impl RadiosityMesh {
                 {
                     return None;
                 }
+                let first = mp.first_vertex as usize;
+                let (lo, hi) = self.vertices[first..first + mp.vertex_count as usize]
+                    .iter()
+                    .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), v| {
+                        (lo.min(v.q), hi.max(v.q))
+                    });
+                let close: Vec<(Vec3, f32)> = lights
+                    .iter()
+                    .copied()
+                    .filter(|&(c, r)| (c.clamp(lo, hi) - c).length() - r < 2.0 * size)
+                    .collect();
+                if close.is_empty() {
+                    return None;
+                }
                 let d = self
                     .pieces(p)
                     .iter()
                     .flat_map(|piece| {
-                        lights
+                        close
                             .iter()
                             .map(move |&(c, r)| (closest_on_triangle(c, piece.corners) - c).length() - r)
                     })
