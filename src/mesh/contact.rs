@@ -53,13 +53,7 @@ impl RadiosityMesh {
     /// vertex budget lasts ([`BUDGET`], less `used`). Deterministic: fixed sample
     /// points, no seed.
     pub(super) fn holding(&self, scene: &Scene, accel: &dyn Accel, used: f32) -> HashMap<(u32, u32), f32> {
-        // The pieces of a surface cut into several share its first polygon: they are
-        // never refined (the whole surface would be).
-        let cut: HashSet<(u32, u32)> = self
-            .splits
-            .keys()
-            .map(|&p| (self.patches[p as usize].shape, self.patches[p as usize].local))
-            .collect();
+        let cut = self.cut_surfaces();
         let mut near: Vec<(u32, f32)> = (0..self.front_patches)
             .into_par_iter()
             .filter(|&p| {
@@ -90,6 +84,15 @@ impl RadiosityMesh {
             fine.insert((mp.shape, mp.local), 0.5);
         }
         fine
+    }
+
+    /// The surfaces cut into several patches, by shape and first polygon: their
+    /// pieces share it, so they are never refined (the whole surface would be).
+    pub(super) fn cut_surfaces(&self) -> HashSet<(u32, u32)> {
+        self.splits
+            .keys()
+            .map(|&p| (self.patches[p as usize].shape, self.patches[p as usize].local))
+            .collect()
     }
 
     /// The share of patch `p`'s area over which a ray along its normal meets another

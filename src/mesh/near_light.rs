@@ -54,11 +54,7 @@ impl RadiosityMesh {
         if lights.is_empty() || !(size.is_finite() && size > 0.0) {
             return (HashMap::new(), 0.0);
         }
-        let cut: HashSet<(u32, u32)> = self
-            .splits
-            .keys()
-            .map(|&p| (self.patches[p as usize].shape, self.patches[p as usize].local))
-            .collect();
+        let cut = self.cut_surfaces();
         // Per candidate patch: its distance to the nearest light. Only the lights
         // near the box round its vertices (within two mesh sizes: a curved patch
         // bulges between them) are measured against its pieces.
