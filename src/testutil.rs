@@ -195,6 +195,15 @@ pub fn split_square(s: f32, z: f32, k: u32) -> crate::geometry::TriMesh {
     split_quad([v(0.0, 0.0, z), v(s, 0.0, z), v(s, s, z), v(0.0, s, z)], k)
 }
 
+/// [`split_square`] at height 0, centred on the origin: `[-s/2, s/2]^2`.
+pub fn centred_square(s: f32, k: u32) -> crate::geometry::TriMesh {
+    let mut m = split_square(s, 0.0, k);
+    for p in &mut m.positions {
+        *p -= v(0.5 * s, 0.5 * s, 0.0);
+    }
+    m
+}
+
 /// The parallelogram with corners `c` (counter-clockwise seen from the front) cut
 /// into `k x k` cells of two triangles each, every triangle its own scene patch (so
 /// the radiosity mesh merges them back into one).

@@ -456,7 +456,7 @@ impl AreaEmitter {
     /// exact sphere of one radiance emitting outwards and `p` is outside it: its cap
     /// above the horizon in closed form ([`SphereCap::irradiance`]).
     pub fn sphere_irradiance(&self, p: Vec3, n: Vec3) -> Option<Rgb> {
-        if !self.corner_radiance.is_empty() {
+        if !self.is_sphere() {
             return None;
         }
         Some(self.radiance * self.visible_sphere(p)?.irradiance(n))

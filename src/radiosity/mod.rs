@@ -804,9 +804,18 @@ impl Solver<'_> {
         // meshed as a few elements sent 9 % too little. Its unoccluded light at each
         // vertex has a closed form, which the cells' sum is scaled to; their
         // visibility still weighs them.
+        // (Only an exact shape's emitter is prepared: a tessellated light's would be
+        // built for nothing.)
         let sphere = match source {
-            SourceId::Light(l) => match SampledLight::prepare(self.scene, &self.scene.lights[l as usize]) {
-                SampledLight::Area(e) if e.is_sphere() => Some(e),
+            SourceId::Light(l) => match &self.scene.lights[l as usize] {
+                light @ Light::Area { shape, .. }
+                    if self.scene.shapes[*shape as usize].mesh.quadric.is_some() =>
+                {
+                    match SampledLight::prepare(self.scene, light) {
+                        SampledLight::Area(e) if e.is_sphere() => Some(e),
+                        _ => None,
+                    }
+                }
                 _ => None,
             },
             SourceId::Patch(_) => None,

@@ -470,10 +470,7 @@ fn same_seed_same_solution() {
 #[test]
 fn point_light_over_a_merged_plane_matches_the_closed_form() {
     // A 4 x 4 plane centred on the origin, 40 x 40 cells of two triangles.
-    let mut plane = crate::testutil::split_square(4.0, 0.0, 40);
-    for p in &mut plane.positions {
-        *p -= Vec3::new(2.0, 2.0, 0.0);
-    }
+    let plane = crate::testutil::centred_square(4.0, 40);
     let (h, i0, rho) = (1.5f32, 2.0f32, 0.6f32);
     let light = Light::Point {
         position: Vec3::new(0.3, -0.2, h),
@@ -507,10 +504,7 @@ fn point_light_over_a_merged_plane_matches_the_closed_form() {
 /// before their sum was scaled to that closed form.
 #[test]
 fn a_small_sphere_light_over_a_plane_matches_the_closed_form() {
-    let mut plane = crate::testutil::split_square(4.0, 0.0, 16);
-    for p in &mut plane.positions {
-        *p -= Vec3::new(2.0, 2.0, 0.0);
-    }
+    let plane = crate::testutil::centred_square(4.0, 16);
     let (c, r, l, rho) = (Vec3::new(0.3, -0.2, 1.0), 0.05f32, 40.0f32, 0.6f32);
     let s = scene(
         vec![
@@ -1020,10 +1014,7 @@ fn a_glossy_floor_passes_its_light_on_in_pass_1() {
 fn a_thin_pane_dims_the_floor_behind_it_by_its_transmittance() {
     use crate::bsdf::glass::thin_reflectance;
     use crate::scene::BsdfKind;
-    let mut plane = crate::testutil::split_square(4.0, 0.0, 40);
-    for p in &mut plane.positions {
-        *p -= Vec3::new(2.0, 2.0, 0.0);
-    }
+    let plane = crate::testutil::centred_square(4.0, 40);
     let (h, i0, rho) = (1.5f32, 2.0f32, 0.6f32);
     let lp = Vec3::new(0.3, -0.2, h);
     let light = Light::Point {
@@ -1252,10 +1243,7 @@ fn floor_centre(sol: &Solution) -> Vec3 {
 /// by `light`.
 fn floor_under_glass(glass: Vec<TriMesh>, light: Light) -> Scene {
     use crate::scene::BsdfKind;
-    let mut plane = crate::testutil::split_square(4.0, 0.0, 16);
-    for p in &mut plane.positions {
-        *p -= Vec3::new(2.0, 2.0, 0.0);
-    }
+    let plane = crate::testutil::centred_square(4.0, 16);
     let mut shapes = vec![(
         plane,
         BsdfKind::Diffuse {
@@ -1337,10 +1325,7 @@ fn the_sun_lights_a_floor_through_a_pane_of_thick_glass() {
 #[test]
 fn the_sky_through_a_small_opening_is_not_darkened_by_the_edge_rule() {
     let (l, rho) = (1.2f32, 0.5f32);
-    let mut floor = crate::testutil::split_square(4.0, 0.0, 16);
-    for p in &mut floor.positions {
-        *p -= Vec3::new(2.0, 2.0, 0.0);
-    }
+    let floor = crate::testutil::centred_square(4.0, 16);
     let mut meshes = vec![(floor, Vec3::splat(rho))];
     let black = Vec3::ZERO;
     for f in box_inside(v(-2.0, -2.0, 0.0), v(2.0, 2.0, 3.0)) {

@@ -121,8 +121,8 @@ pub enum Fresnel {
         /// Imaginary part.
         k: Rgb,
     },
-    /// Schlick's curve from the reflectance at normal incidence (a named material
-    /// radtrace knows only that of; 1 for Mitsuba's `none`).
+    /// Schlick's curve from the reflectance at normal incidence: 1 for Mitsuba's
+    /// `none`, a `principled` metal's base colour.
     Schlick {
         /// Reflectance at normal incidence.
         f0: Rgb,

@@ -353,7 +353,7 @@ impl Loader {
     fn rough_conductor(&mut self, s: Src, c: Node, obj: &Obj) -> Result<Glossy> {
         let distribution = self.microfacet(s, c, obj)?;
         let scale = obj.reflectance("specular_reflectance", 1.0)?;
-        let fresnel = self.conductor_fresnel(s, c, obj)?;
+        let fresnel = Self::conductor_fresnel(s, c, obj)?;
         Ok(Glossy {
             distribution,
             fresnel,
@@ -501,7 +501,7 @@ impl Loader {
     /// `eta` and `k` per channel, or those of a named `material` as Mitsuba 3's RGB
     /// variants read them (Mitsuba 0.6's `ext_eta` divides both), or 1 for `none`,
     /// the default. A name Mitsuba has no data for fails, as in Mitsuba.
-    fn conductor_fresnel(&mut self, s: Src, c: Node, obj: &Obj) -> Result<Fresnel> {
+    fn conductor_fresnel(s: Src, c: Node, obj: &Obj) -> Result<Fresnel> {
         let ext = match obj.scalar("ext_eta")? {
             Some(e) if e > 0.0 => e,
             Some(e) => return Err(obj.err_param("ext_eta", format!("= {e} must be positive"))),
@@ -543,7 +543,7 @@ impl Loader {
     /// at the angle of incidence, as Mitsuba 3's `conductor`.
     fn conductor(&mut self, s: Src, c: Node, obj: &Obj) -> Result<BsdfKind> {
         let specular_reflectance = obj.reflectance("specular_reflectance", 1.0)?;
-        let fresnel = self.conductor_fresnel(s, c, obj)?;
+        let fresnel = Self::conductor_fresnel(s, c, obj)?;
         Ok(BsdfKind::Conductor {
             specular_reflectance,
             fresnel,
