@@ -195,6 +195,15 @@ pub fn split_square(s: f32, z: f32, k: u32) -> crate::geometry::TriMesh {
     split_quad([v(0.0, 0.0, z), v(s, 0.0, z), v(s, s, z), v(0.0, s, z)], k)
 }
 
+/// A uniform sky (`constant`) of radiance `l` in every channel.
+pub fn uniform_sky(l: f32) -> Light {
+    Light::Environment {
+        radiance: Vec3::splat(l),
+        texture: None,
+        to_local: glam::Mat3::IDENTITY,
+    }
+}
+
 /// [`split_square`] at height 0, centred on the origin: `[-s/2, s/2]^2`.
 pub fn centred_square(s: f32, k: u32) -> crate::geometry::TriMesh {
     let mut m = split_square(s, 0.0, k);

@@ -1078,19 +1078,10 @@ mod tests {
     #[test]
     fn sky_photons_aimed_at_a_mirror_floor_carry_what_the_sky_sends_it() {
         use crate::accel::Bvh;
-        use crate::scene::Light;
         use crate::testutil::scene_with;
         let (floor, mirror) = mirror_floor();
         let l = 1.5f32;
-        let s = scene_with(
-            vec![(floor, mirror)],
-            vec![Light::Environment {
-                radiance: Vec3::splat(l),
-                texture: None,
-                to_local: glam::Mat3::IDENTITY,
-            }],
-            &[],
-        );
+        let s = scene_with(vec![(floor, mirror)], vec![crate::testutil::uniform_sky(l)], &[]);
         let accel = Bvh::build(&s);
         let lights = SampledLight::prepare_all(&s);
         let aim = Aim::new(&s, &accel, &lights);

@@ -1144,11 +1144,7 @@ fn the_sky_reaches_a_floor_through_a_slab_of_thick_glass() {
     for f in box_outside(v(-half, -half, h), v(half, half, h + 0.02)) {
         shapes.push((f, BsdfKind::clear_glass(1.5, false)));
     }
-    let sky = Light::Environment {
-        radiance: Vec3::splat(l),
-        texture: None,
-        to_local: glam::Mat3::IDENTITY,
-    };
+    let sky = crate::testutil::uniform_sky(l);
     let s = crate::testutil::scene_with(shapes, vec![sky], &[]);
     let sol = solve(&s, &Bvh::build(&s), &settings(0.5, 64, 0), &Silent).unwrap();
     let got = floor_centre(&sol).x;
@@ -1194,11 +1190,7 @@ fn an_open_floor_under_a_uniform_sky_gets_pi_l() {
     for f in box_outside(v(-0.5, -0.5, 0.0), v(0.5, 0.5, 1.0)) {
         meshes.push((f, Vec3::splat(rho)));
     }
-    let sky = Light::Environment {
-        radiance: Vec3::splat(l),
-        texture: None,
-        to_local: glam::Mat3::IDENTITY,
-    };
+    let sky = crate::testutil::uniform_sky(l);
     let s = scene(meshes, vec![sky], &[]);
     let sol = solve(&s, &Bvh::build(&s), &settings(0.5, 64, 0), &Silent).unwrap();
     let e = &sol.lists[0][0];
@@ -1345,11 +1337,7 @@ fn the_sky_through_a_small_opening_is_not_darkened_by_the_edge_rule() {
     ] {
         meshes.push((c, black));
     }
-    let sky = Light::Environment {
-        radiance: Vec3::splat(l),
-        texture: None,
-        to_local: glam::Mat3::IDENTITY,
-    };
+    let sky = crate::testutil::uniform_sky(l);
     let s = scene(meshes, vec![sky], &[]);
     let sol = solve(&s, &Bvh::build(&s), &settings(0.25, 64, 0), &Silent).unwrap();
     let total = sol.total();

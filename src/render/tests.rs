@@ -915,11 +915,7 @@ fn the_suns_disk_is_seen_directly_and_in_a_mirror_and_carries_its_irradiance() {
                 kind,
             )],
             vec![
-                Light::Environment {
-                    radiance: Vec3::splat(sky),
-                    texture: None,
-                    to_local: glam::Mat3::IDENTITY,
-                },
+                crate::testutil::uniform_sky(sky),
                 Light::Directional {
                     direction: -towards,
                     irradiance: Vec3::splat(e),
