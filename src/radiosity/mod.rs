@@ -463,6 +463,38 @@ type Received = (Vec<Rgb>, Vec<Rgb>, u64);
 /// rays cast.
 type AtVertex = (Rgb, Rgb, u64);
 
+/// What photons of one kind deposit, per vertex: in the general radiosity (and of
+/// it, the caustic part), and in each list slot. Filled as the deposits come.
+struct Deposits {
+    general: Vec<Rgb>,
+    caustic: Vec<Rgb>,
+    slots: Vec<Option<Vec<Rgb>>>,
+}
+
+impl Deposits {
+    fn new(slots: usize) -> Self {
+        Deposits {
+            general: Vec::new(),
+            caustic: Vec::new(),
+            slots: vec![None; slots],
+        }
+    }
+
+    fn add(&mut self, d: &photons::Deposit, nv: usize) {
+        let v = d.vertex as usize;
+        if d.slot == u8::MAX {
+            self.general.resize(nv, Vec3::ZERO);
+            self.general[v] += d.value;
+            if d.caustic {
+                self.caustic.resize(nv, Vec3::ZERO);
+                self.caustic[v] += d.value;
+            }
+        } else if let Some(slot) = self.slots.get_mut(d.slot as usize) {
+            slot.get_or_insert_with(|| vec![Vec3::ZERO; nv])[v] += d.value;
+        }
+    }
+}
+
 struct Solver<'a> {
     scene: &'a Scene,
     accel: &'a dyn Accel,
@@ -691,10 +723,6 @@ impl Solver<'_> {
             }
             _ => (light_photons, shot_photons),
         };
-        let slots = self.settings.sources_per_patch as usize;
-        let mut general_b = vec![Vec3::ZERO; nv];
-        let mut caustic_b: Vec<Rgb> = Vec::new();
-        let mut slot_b: Vec<Option<Vec<Rgb>>> = vec![None; slots];
         let tracer = photons::Tracer {
             scene: self.scene,
             accel: self.accel,
@@ -713,63 +741,67 @@ impl Solver<'_> {
             lights,
             aim,
         };
-        let total = tracer.total();
-        let chunks = tracer.chunks();
+        let order = tracer.order();
+        let chunks = order.len() as u64;
+        // What each kind's photons deposit, apart: each is scaled by the share of its
+        // own photons traced.
+        let slots = self.settings.sources_per_patch as usize;
+        let mut sums: Vec<Deposits> = (0..photons::KINDS).map(|_| Deposits::new(slots)).collect();
         progress.start("photons", chunks);
-        let round = (4 * rayon::current_num_threads() as u64).max(8);
+        let round = (4 * rayon::current_num_threads()).max(8);
         let mut done = 0;
-        while done < chunks {
-            let end = (done + round).min(chunks);
-            for (deposits, rays) in tracer.trace_chunks(done..end) {
+        while done < order.len() {
+            let end = (done + round).min(order.len());
+            let traced = tracer.trace_chunks(&order[done..end]);
+            for (chunk, (deposits, rays)) in order[done..end].iter().zip(traced) {
                 self.stats.photon_rays += rays;
+                let sum = &mut sums[chunk.kind as usize];
                 for d in deposits {
-                    let v = d.vertex as usize;
-                    if d.slot == u8::MAX {
-                        general_b[v] += d.value;
-                        if d.caustic {
-                            caustic_b.resize(nv, Vec3::ZERO);
-                            caustic_b[v] += d.value;
+                    sum.add(&d, nv);
+                    if trace && d.slot == u8::MAX {
+                        if let Some(src) = d.source {
+                            self.folded[self.mesh.vertices[d.vertex as usize].patch as usize].insert(src);
                         }
-                        if trace {
-                            if let Some(src) = d.source {
-                                self.folded[self.mesh.vertices[v].patch as usize].insert(src);
-                            }
-                        }
-                    } else {
-                        slot_b[d.slot as usize].get_or_insert_with(|| vec![Vec3::ZERO; nv])[v] += d.value;
                     }
                 }
             }
             done = end;
-            progress.set(done);
-            if budget > 0.0 && start.elapsed().as_secs_f64() > budget && done < chunks {
+            progress.set(done as u64);
+            if budget > 0.0 && start.elapsed().as_secs_f64() > budget && done < order.len() {
                 self.stats.timed_out = true;
                 break;
             }
         }
         progress.finish();
-        let traced = tracer.photons_in(done);
-        self.stats.photons = traced;
-        if traced == 0 {
-            return;
-        }
-        // The photons traced stand for all of them.
-        let scale = total as f32 / traced as f32;
-        for (g, b) in self.general.iter_mut().zip(&general_b) {
-            *g += *b * scale;
-        }
-        self.caustic = caustic_b.into_iter().map(|b| b * scale).collect();
-        for (k, b) in slot_b.iter().enumerate() {
-            let Some(b) = b else { continue };
-            for (p, list) in self.lists.iter_mut().enumerate() {
-                let Some(e) = list.get_mut(k) else { continue };
-                let first = self.mesh.patches[p].first_vertex as usize;
-                for (i, (o, u)) in e.occluded.iter_mut().zip(e.unoccluded.iter_mut()).enumerate() {
-                    let add = b[first + i] * scale;
-                    // Photons see no occluders they missed: the stochastic light counts
-                    // as unoccluded too.
-                    *o += add;
-                    *u += add;
+        let traced = tracer.traced(&order[..done]);
+        self.stats.photons = traced.iter().sum();
+        // The photons traced of each kind stand for all of that kind.
+        for ((sum, n), t) in sums.into_iter().zip(tracer.counts()).zip(traced) {
+            if t == 0 {
+                continue;
+            }
+            let scale = n as f32 / t as f32;
+            for (g, b) in self.general.iter_mut().zip(&sum.general) {
+                *g += *b * scale;
+            }
+            if !sum.caustic.is_empty() {
+                self.caustic.resize(nv, Vec3::ZERO);
+                for (c, b) in self.caustic.iter_mut().zip(&sum.caustic) {
+                    *c += *b * scale;
+                }
+            }
+            for (k, b) in sum.slots.iter().enumerate() {
+                let Some(b) = b else { continue };
+                for (p, list) in self.lists.iter_mut().enumerate() {
+                    let Some(e) = list.get_mut(k) else { continue };
+                    let first = self.mesh.patches[p].first_vertex as usize;
+                    for (i, (o, u)) in e.occluded.iter_mut().zip(e.unoccluded.iter_mut()).enumerate() {
+                        let add = b[first + i] * scale;
+                        // Photons see no occluders they missed: the stochastic light counts
+                        // as unoccluded too.
+                        *o += add;
+                        *u += add;
+                    }
                 }
             }
         }

@@ -1007,6 +1007,50 @@ fn a_glossy_floor_passes_its_light_on_in_pass_1() {
     assert!(absorbed_power(&black, rho) < 0.8 * emitted);
 }
 
+/// A solve cut short by its time budget still carries all the light: every kind of
+/// photon (the patches', the lights' aimed at the glossy floor, the shots' that meet
+/// it) is traced from the start, each scaled by its own share traced. Traced one
+/// kind after the other, the first round held only the patches' photons, scaled up
+/// to stand for the others' too.
+#[test]
+fn photons_cut_short_by_the_time_budget_still_conserve_energy() {
+    use crate::scene::{BsdfKind, Fresnel, Glossy, Microfacet};
+    let rho = 0.6;
+    let mut s = lit_box(rho);
+    let floor = s
+        .shapes
+        .iter()
+        .position(|sh| sh.mesh.positions.iter().all(|p| p.y == 0.0))
+        .unwrap();
+    let b = s.shapes[floor].bsdf as usize;
+    let lobe = Glossy {
+        distribution: Microfacet {
+            alpha_u: 0.05,
+            alpha_v: 0.05,
+            beckmann: false,
+        },
+        fresnel: Fresnel::Schlick { f0: Vec3::ONE },
+        scale: Vec3::ONE,
+    };
+    s.bsdfs[b].kind = BsdfKind::RoughConductor { lobe };
+    let bvh = Bvh::build(&s);
+    let mut st = settings(0.1, 16, 20);
+    st.tolerance = 0.02;
+    st.photons = 256;
+    // A budget already spent: no patch shot, and one round of photon chunks.
+    st.time_limit = 1e-9;
+    let a = solve(&s, &bvh, &st, &Silent).unwrap();
+    assert!(a.stats.timed_out && a.stats.patch_shots == 0, "{:?}", a.stats);
+    let rounds = (4 * rayon::current_num_threads()).max(8) as u64;
+    assert!(a.stats.photons <= rounds * 1024, "{:?}", a.stats);
+    let emitted = a.stats.emitted_power;
+    let absorbed = absorbed_power(&a, rho);
+    assert!(
+        absorbed < emitted * 1.05 && absorbed > emitted * 0.95,
+        "{absorbed} vs {emitted}"
+    );
+}
+
 /// A thin pane of glass (`thindielectric`) between a point light and a floor dims
 /// the floor behind it by the pane's transmittance at each ray's angle, and casts
 /// no other shadow; beside it the floor gets the closed form.
