@@ -157,8 +157,10 @@ pub struct SolveArgs {
     /// Deterministic patch shots at most.
     #[arg(long, default_value_t = 20000)]
     pub(super) max_shots: u32,
-    /// Photons per mesh vertex that carry the light the deterministic shots leave
-    /// unshot (0: none; the rest stays unshot) [default: by --quality, 64 for good].
+    /// Photons per mesh vertex, at most, that carry the light the deterministic shots
+    /// leave unshot (0: none; the rest stays unshot); they stop sooner once their
+    /// light has settled (two halves of them within 2 % of the light, on the mean
+    /// over the surfaces) [default: by --quality, 64 for good].
     #[arg(long, value_name = "N")]
     pub(super) photons: Option<u32>,
     /// Photons from the patches at most, whatever --photons asks for a large mesh (0:

@@ -38,6 +38,7 @@ use crate::scene::{mean, Light, Rgb, Scene};
 use crate::{Error, Result};
 
 mod form_factor;
+mod noise;
 mod photons;
 mod project;
 mod shot;
@@ -747,6 +748,20 @@ impl Solver<'_> {
         // own photons traced.
         let slots = self.settings.sources_per_patch as usize;
         let mut sums: Vec<Deposits> = (0..photons::KINDS).map(|_| Deposits::new(slots)).collect();
+        // The light each vertex has from the shots, against which the photons' noise
+        // is judged ([`noise`]), and when it is judged first.
+        let mut shot_light: Vec<f32> = self.general.iter().map(|g| mean(*g)).collect();
+        for (p, list) in self.lists.iter().enumerate() {
+            let first = self.mesh.patches[p].first_vertex as usize;
+            for e in list {
+                for (k, c) in e.occluded.iter().enumerate() {
+                    shot_light[first + k] += mean(*c);
+                }
+            }
+        }
+        let area: Vec<f32> = self.mesh.vertices.iter().map(|v| v.area).collect();
+        let mut halves = noise::Halves::new(nv);
+        let mut judge_at = noise::FIRST_PER_VERTEX * receiving;
         progress.start("photons", chunks);
         let round = (4 * rayon::current_num_threads()).max(8);
         let mut done = 0;
@@ -755,6 +770,7 @@ impl Solver<'_> {
             let traced = tracer.trace_chunks(&order[done..end]);
             for (chunk, (deposits, rays)) in order[done..end].iter().zip(traced) {
                 self.stats.photon_rays += rays;
+                halves.add(*chunk, tracer.traced(&[*chunk]).iter().sum(), &deposits);
                 let sum = &mut sums[chunk.kind as usize];
                 for d in deposits {
                     sum.add(&d, nv);
@@ -770,6 +786,15 @@ impl Solver<'_> {
             if budget > 0.0 && start.elapsed().as_secs_f64() > budget && done < order.len() {
                 self.stats.timed_out = true;
                 break;
+            }
+            // Settled: the photons so far stand for all of them.
+            let so_far: u64 = tracer.traced(&order[..done]).iter().sum();
+            if so_far >= judge_at && done < order.len() {
+                judge_at = so_far + so_far / 4;
+                let n = halves.noise(tracer.counts(), &shot_light, &area);
+                if n.is_some_and(|n| n < noise::SETTLED) {
+                    break;
+                }
             }
         }
         progress.finish();

@@ -619,6 +619,42 @@ fn photons_give_the_same_solution_at_one_and_two_threads_and_conserve_energy() {
     );
 }
 
+/// The photons stop once their light has settled (`noise`): well before the 256 a
+/// vertex asked for in a plain lit box, with all the power carried, and two seeds'
+/// solutions then differ, vertex by vertex, by about what the rule allows.
+#[test]
+fn photons_stop_once_their_light_has_settled() {
+    let rho = 0.6;
+    let s = lit_box(rho);
+    let bvh = Bvh::build(&s);
+    let mut st = settings(0.1, 16, 3);
+    st.tolerance = 0.02;
+    st.photons = 256;
+    let a = solve(&s, &bvh, &st, &Silent).unwrap();
+    let receiving = a.mesh.vertices.len() as u64;
+    assert!(
+        a.stats.photons < 128 * receiving && a.stats.photons >= noise::FIRST_PER_VERTEX * receiving,
+        "{} photons for {receiving} vertices",
+        a.stats.photons
+    );
+    let emitted = a.stats.emitted_power;
+    let absorbed = absorbed_power(&a, rho);
+    assert!(
+        (absorbed - emitted).abs() < 0.03 * emitted,
+        "{absorbed} vs {emitted}"
+    );
+    st.seed = 4;
+    let b = solve(&s, &bvh, &st, &Silent).unwrap();
+    let (ta, tb) = (a.total(), b.total());
+    let (mut diff, mut area) = (0.0, 0.0);
+    for (v, (x, y)) in a.mesh.vertices.iter().zip(ta.iter().zip(&tb)) {
+        diff += v.area * ((x.x - y.x).abs() / (0.5 * (x.x + y.x)));
+        area += v.area;
+    }
+    let diff = diff / area;
+    assert!(diff < 3.0 * noise::SETTLED, "seeds {diff} apart");
+}
+
 /// A furnace with a box resting on its floor (faces wound outwards): every
 /// surface emits and reflects alike, so the floor's radiosity is rho / (1 - rho)
 /// right up to the box, where the vertices inside the box's footprint (in the
