@@ -45,6 +45,30 @@ fn lit_box(rho: f32) -> Scene {
     )
 }
 
+/// [`lit_box`] with a glossy metal floor (GGX, alpha 0.05, white): its light
+/// goes on by photons. Returns the scene and the floor's BSDF.
+fn lit_box_with_glossy_floor(rho: f32) -> (Scene, usize) {
+    use crate::scene::{BsdfKind, Fresnel, Glossy, Microfacet};
+    let mut s = lit_box(rho);
+    let floor = s
+        .shapes
+        .iter()
+        .position(|sh| sh.mesh.positions.iter().all(|p| p.y == 0.0))
+        .unwrap();
+    let b = s.shapes[floor].bsdf as usize;
+    let lobe = Glossy {
+        distribution: Microfacet {
+            alpha_u: 0.05,
+            alpha_v: 0.05,
+            beckmann: false,
+        },
+        fresnel: Fresnel::Schlick { f0: Vec3::ONE },
+        scale: Vec3::ONE,
+    };
+    s.bsdfs[b].kind = BsdfKind::RoughConductor { lobe };
+    (s, b)
+}
+
 /// The power absorbed by surfaces of reflectance `rho` (red channel), from their
 /// total radiosity.
 fn absorbed_power(sol: &Solution, rho: f32) -> f64 {
@@ -1000,25 +1024,9 @@ fn patch_shots_give_way_to_photons_where_they_cost_far_more_rays() {
 /// lobe's loss; with the floor black instead they absorb far less.
 #[test]
 fn a_glossy_floor_passes_its_light_on_in_pass_1() {
-    use crate::scene::{BsdfKind, Fresnel, Glossy, Microfacet};
+    use crate::scene::BsdfKind;
     let rho = 0.6;
-    let mut s = lit_box(rho);
-    let floor = s
-        .shapes
-        .iter()
-        .position(|sh| sh.mesh.positions.iter().all(|p| p.y == 0.0))
-        .unwrap();
-    let b = s.shapes[floor].bsdf as usize;
-    let lobe = Glossy {
-        distribution: Microfacet {
-            alpha_u: 0.05,
-            alpha_v: 0.05,
-            beckmann: false,
-        },
-        fresnel: Fresnel::Schlick { f0: Vec3::ONE },
-        scale: Vec3::ONE,
-    };
-    s.bsdfs[b].kind = BsdfKind::RoughConductor { lobe };
+    let (mut s, b) = lit_box_with_glossy_floor(rho);
     let bvh = Bvh::build(&s);
     let mut st = settings(0.1, 16, 20);
     st.tolerance = 0.02;
@@ -1050,25 +1058,8 @@ fn a_glossy_floor_passes_its_light_on_in_pass_1() {
 /// to stand for the others' too.
 #[test]
 fn photons_cut_short_by_the_time_budget_still_conserve_energy() {
-    use crate::scene::{BsdfKind, Fresnel, Glossy, Microfacet};
     let rho = 0.6;
-    let mut s = lit_box(rho);
-    let floor = s
-        .shapes
-        .iter()
-        .position(|sh| sh.mesh.positions.iter().all(|p| p.y == 0.0))
-        .unwrap();
-    let b = s.shapes[floor].bsdf as usize;
-    let lobe = Glossy {
-        distribution: Microfacet {
-            alpha_u: 0.05,
-            alpha_v: 0.05,
-            beckmann: false,
-        },
-        fresnel: Fresnel::Schlick { f0: Vec3::ONE },
-        scale: Vec3::ONE,
-    };
-    s.bsdfs[b].kind = BsdfKind::RoughConductor { lobe };
+    let (s, _) = lit_box_with_glossy_floor(rho);
     let bvh = Bvh::build(&s);
     let mut st = settings(0.1, 16, 20);
     st.tolerance = 0.02;
