@@ -36,6 +36,29 @@ pub fn point_polygon_form_factor(x: Vec3, n: Vec3, poly: &[Vec3]) -> f32 {
     sum.abs() / (2.0 * std::f32::consts::PI)
 }
 
+/// The vector form factor of a polygon from a point at `x` (Lambert's formula
+/// without a receiver): its dot product with a unit normal `n` is the form factor
+/// [`point_polygon_form_factor`] gives (up to sign, by the polygon's winding) where
+/// the whole polygon is above the plane through `x` normal to `n`. The sky's cells,
+/// so far off that every receiver sees each one alike, take it once for all.
+pub fn polygon_vector_form_factor(x: Vec3, poly: &[Vec3]) -> Vec3 {
+    let m = poly.len();
+    let r: Vec<Vec3> = poly.iter().map(|c| (*c - x).normalize_or_zero()).collect();
+    (0..m)
+        .map(|i| {
+            let (a, b) = (r[i], r[(i + 1) % m]);
+            let c = a.cross(b);
+            let l = c.length();
+            if l > 1e-12 {
+                c / l * angle(l, a.dot(b))
+            } else {
+                Vec3::ZERO
+            }
+        })
+        .sum::<Vec3>()
+        / (2.0 * std::f32::consts::PI)
+}
+
 /// Lambert's signed term of the polygon edge from unit vector `a` to unit vector `b`
 /// (seen from the receiver, normal `n`): the edge's angle times the cosine of its
 /// plane's normal with `n`.
@@ -83,6 +106,36 @@ fn angle(s: f32, c: f32) -> f32 {
 mod tests {
     use super::*;
     use std::f32::consts::PI;
+
+    /// Dotted with a receiver's normal, the vector form factor is the clipped
+    /// polygon's form factor wherever the polygon is wholly above the receiver.
+    #[test]
+    fn the_vector_form_factor_gives_the_form_factor_above_the_horizon() {
+        let poly = [
+            Vec3::new(-1.0, -0.5, 2.0),
+            Vec3::new(1.5, -0.5, 2.5),
+            Vec3::new(1.0, 1.0, 2.0),
+            Vec3::new(-0.5, 1.2, 1.8),
+        ];
+        let x = Vec3::new(0.1, 0.2, 0.0);
+        let phi = polygon_vector_form_factor(x, &poly);
+        let mut checked = 0;
+        for k in 0..64 {
+            let (t, p) = (k as f32 * 0.37, k as f32 * 0.11);
+            let n = Vec3::new(t.cos() * p.sin(), t.sin() * p.sin(), p.cos()).normalize();
+            if poly.iter().all(|c| n.dot(*c - x) > 0.0) {
+                let exact = point_polygon_form_factor(x, n, &poly);
+                assert!(
+                    (n.dot(phi).abs() - exact).abs() < 1e-6 * exact.max(1.0),
+                    "{n}: {} vs {exact}",
+                    n.dot(phi)
+                );
+                assert!(exact > 0.01);
+                checked += 1;
+            }
+        }
+        assert!(checked > 10, "{checked}");
+    }
 
     #[test]
     fn angle_matches_atan2_to_about_one_ulp_of_pi() {

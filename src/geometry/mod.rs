@@ -19,7 +19,7 @@ mod trimesh_build;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 
 pub use bezier::BezierPatch;
-pub use form_factor::{edge_term, point_polygon_form_factor};
+pub use form_factor::{edge_term, point_polygon_form_factor, polygon_vector_form_factor};
 pub use quadric::{Param, Quadric, QuadricKind};
 pub use solid_angle::{front_solid_angle, triangle_solid_angle, Subtense};
 

@@ -7,7 +7,7 @@ use glam::Vec3;
 
 use super::{transfer, AtVertex, Solver};
 use crate::emitters::SampledLight;
-use crate::geometry::point_polygon_form_factor;
+use crate::geometry::{point_polygon_form_factor, polygon_vector_form_factor};
 use crate::interaction::{ray_epsilon, shadow_ray, transmittance};
 use crate::mesh::{point_in_polygon, MeshVertex};
 use crate::sampling::stratum;
@@ -187,8 +187,12 @@ pub(super) struct ShootPoint {
     pub(super) flat: bool,
     /// A cell of the sky ([`sky_cells`]): so large a part of the sphere that its
     /// points are not alike to a receiver, so each ray's visibility counts by the
-    /// receiver's kernel there (cosines over squared distance), not equally.
-    pub(super) far: bool,
+    /// receiver's kernel there (cosines over squared distance), not equally. It holds
+    /// the cell's vector form factor ([`polygon_vector_form_factor`]): so far off, the
+    /// cell looks alike from every receiver, and one wholly above a receiver's horizon
+    /// has the form factor of its dot product with the receiver's normal (the exact
+    /// clipped polygon was a quarter of a daylit room's whole render).
+    pub(super) far: Option<Vec3>,
 }
 
 impl ShootPoint {
@@ -202,7 +206,7 @@ impl ShootPoint {
             radiosity: c.value * c.weight,
             quarters: c.quarters.map(|q| q * c.weight),
             flat: c.flat && c.len >= 3,
-            far: false,
+            far: None,
         }
     }
 
@@ -224,7 +228,7 @@ impl ShootPoint {
             radiosity: intensity,
             quarters: [intensity; 4],
             flat: false,
-            far: false,
+            far: None,
         }
     }
 }
@@ -280,7 +284,7 @@ pub fn sky_cells(scene: &crate::scene::Scene, count: u32) -> Vec<ShootPoint> {
                         radiosity,
                         quarters: [radiosity; 4],
                         flat: true,
-                        far: true,
+                        far: Some(polygon_vector_form_factor(c, &poly)),
                     });
                 }
             }
@@ -339,7 +343,7 @@ impl Solver<'_> {
                 } else {
                     sp.p
                 };
-                let w = if sp.far {
+                let w = if sp.far.is_some() {
                     let d = target - x;
                     let r2 = d.length_squared();
                     (n.dot(d).max(0.0) * (-sp.n.dot(d)).max(0.0) / (r2 * r2)).max(0.0)
@@ -355,7 +359,7 @@ impl Solver<'_> {
                 }
             }
             // A sky cell's kernel-weighted share, as a count of `per` rays.
-            let light = match (sp.far, weights > 0.0) {
+            let light = match (sp.far.is_some(), weights > 0.0) {
                 (false, _) => light,
                 (true, true) => light / weights * per as f32,
                 (true, false) => 0.0,
@@ -394,9 +398,11 @@ impl Solver<'_> {
                     continue;
                 }
                 quarter_fs = quarter_form_factors_near(sp, x, n);
-                f = match quarter_fs {
-                    Some(q) => q.iter().sum(),
-                    None => point_polygon_form_factor(x, n, &sp.poly[..sp.len as usize]),
+                let poly = &sp.poly[..sp.len as usize];
+                f = match (quarter_fs, sp.far) {
+                    (Some(q), _) => q.iter().sum(),
+                    (None, Some(phi)) if poly.iter().all(|c| n.dot(*c - x) > 0.0) => n.dot(phi).abs(),
+                    (None, _) => point_polygon_form_factor(x, n, poly),
                 };
                 if !(f > 0.0) {
                     continue;
@@ -450,7 +456,7 @@ impl Solver<'_> {
             };
             let least = mean(unocc) * EDGE_SHARE;
             // The sky's cells (a set is all of them or none).
-            let sky = points.first().is_some_and(|p| p.far);
+            let sky = points.first().is_some_and(|p| p.far.is_some());
             // The edge cells: index in `reached`, the share of rays that reached it and
             // its light's after their edge rays.
             let mut edges: Vec<(usize, f32, f32)> = Vec::new();

@@ -864,7 +864,7 @@ fn cells_touch_where_they_share_a_corner() {
             radiosity: Vec3::ONE,
             quarters: [Vec3::ONE; 4],
             flat: true,
-            far: false,
+            far: None,
         }
     };
     let cells = [cell(0., 0.), cell(1., 0.), cell(2., 1.), cell(5., 5.)];
