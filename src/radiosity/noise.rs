@@ -8,7 +8,8 @@
 //! two seeds): the glass bulb stops at 106 k of 2.36 M photons, 1.8 -> 0.68 s, FLIP
 //! 0.0302 / 0.0300 -> 0.0305 / 0.0301; the Cornell box at 139 k of 596 k, FLIP
 //! 0.0238 / 0.0239 -> 0.0240 / 0.0240; the frosted room at 311 k of 488 k, 0.0333 /
-//! 0.0357 -> 0.0333 / 0.0363; the glass window, the paper room and the classroom
+//! 0.0357 -> 0.0333 / 0.0363; the hall at 57 k of 280 k, 0.0288 / 0.0288 -> 0.0287 /
+//! 0.0291 (a 512-spp reference); the glass window, the paper room and the classroom
 //! (whose photons carry 30 % of the light over 229 k vertices) trace them all.
 //! The mean is over all the surfaces: light that photons alone bring to a small
 //! area (a glossy bowl's reflection) may stay noisier than 2 % there. Judged kind
