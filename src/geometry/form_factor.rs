@@ -45,31 +45,26 @@ pub fn polygon_vector_form_factor(x: Vec3, poly: &[Vec3]) -> Vec3 {
     let m = poly.len();
     let r: Vec<Vec3> = poly.iter().map(|c| (*c - x).normalize_or_zero()).collect();
     (0..m)
-        .map(|i| {
-            let (a, b) = (r[i], r[(i + 1) % m]);
-            let c = a.cross(b);
-            let l = c.length();
-            if l > 1e-12 {
-                c / l * angle(l, a.dot(b))
-            } else {
-                Vec3::ZERO
-            }
-        })
+        .filter_map(|i| edge(r[i], r[(i + 1) % m]))
+        .map(|(axis, angle)| axis * angle)
         .sum::<Vec3>()
         / (2.0 * std::f32::consts::PI)
+}
+
+/// The polygon edge from unit vector `a` to unit vector `b` (seen from the
+/// receiver): the unit normal of its plane and its angle; `None` for an edge of no
+/// angle.
+fn edge(a: Vec3, b: Vec3) -> Option<(Vec3, f32)> {
+    let c = a.cross(b);
+    let l = c.length();
+    (l > 1e-12).then(|| (c / l, angle(l, a.dot(b))))
 }
 
 /// Lambert's signed term of the polygon edge from unit vector `a` to unit vector `b`
 /// (seen from the receiver, normal `n`): the edge's angle times the cosine of its
 /// plane's normal with `n`.
 pub fn edge_term(n: Vec3, a: Vec3, b: Vec3) -> f32 {
-    let c = a.cross(b);
-    let l = c.length();
-    if l > 1e-12 {
-        n.dot(c / l) * angle(l, a.dot(b))
-    } else {
-        0.0
-    }
+    edge(a, b).map_or(0.0, |(axis, angle)| n.dot(axis) * angle)
 }
 
 /// `atan2(s, c)` for `s >= 0`: the angle between two unit vectors from the sine and

@@ -43,9 +43,9 @@ const MIN_SHARE: f32 = 1.0 / 32.0;
 const MAX_SHARE: f32 = 0.5;
 /// Vertices the refinement may add, as a share of the mesh's (the conference room's
 /// 281 patches that hold something add 4 %)...
-pub(super) const BUDGET: f32 = 0.25;
+const BUDGET: f32 = 0.25;
 /// ...or this many, in a small scene.
-pub(super) const MIN_BUDGET: f32 = 4096.0;
+const MIN_BUDGET: f32 = 4096.0;
 
 impl RadiosityMesh {
     /// The patches to mesh at half the mesh size (see the module text), by shape and
@@ -69,21 +69,35 @@ impl RadiosityMesh {
             .filter(|&(_, share)| (MIN_SHARE..=MAX_SHARE).contains(&share))
             .collect();
         near.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+        self.refine_within(near.into_iter().map(|(p, _)| p), 0.5, used).0
+    }
+
+    /// The patches of `order` to mesh at `fraction` of the mesh size, in that
+    /// order, while the vertices they add (about 1 / fraction^2 - 1 times theirs, on
+    /// both sides of a two-sided patch) stay within the budget that the refinements
+    /// share ([`BUDGET`], less `used` by an earlier one), by shape and first polygon;
+    /// and the vertices they add.
+    pub(super) fn refine_within(
+        &self,
+        order: impl Iterator<Item = u32>,
+        fraction: f32,
+        used: f32,
+    ) -> (HashMap<(u32, u32), f32>, f32) {
         let mut budget = (BUDGET * self.vertices.len() as f32).max(MIN_BUDGET) - used;
+        let mut added_all = 0.0;
         let mut fine = HashMap::new();
-        for (p, _) in near {
+        for p in order {
             let mp = &self.patches[p as usize];
-            // Half the size: about four times the vertices, on both sides of a
-            // two-sided patch.
             let sides = if mp.twin.is_some() { 2.0 } else { 1.0 };
-            let added = 3.0 * mp.vertex_count as f32 * sides;
+            let added = (1.0 / (fraction * fraction) - 1.0) * mp.vertex_count as f32 * sides;
             if added > budget {
                 continue;
             }
             budget -= added;
-            fine.insert((mp.shape, mp.local), 0.5);
+            added_all += added;
+            fine.insert((mp.shape, mp.local), fraction);
         }
-        fine
+        (fine, added_all)
     }
 
     /// The surfaces cut into several patches, by shape and first polygon: their

@@ -9,7 +9,7 @@
 //! size of 0.07 m everywhere. So a small patch (at most [`MAX_ELEMENTS`] elements)
 //! that comes within a mesh size of a light smaller than a mesh size is meshed at
 //! [`FRACTION`] of it, the nearest first, within the vertex budget that the patches
-//! holding an object share ([`BUDGET`]).
+//! holding an object share (`RadiosityMesh::refine_within`).
 
 use std::collections::{HashMap, HashSet};
 
@@ -17,7 +17,7 @@ use rayon::prelude::*;
 
 use glam::Vec3;
 
-use super::contact::{BUDGET, MAX_ELEMENTS, MIN_BUDGET};
+use super::contact::MAX_ELEMENTS;
 use super::RadiosityMesh;
 use crate::geometry::closest_on_triangle;
 use crate::scene::{Light, Scene};
@@ -96,20 +96,6 @@ impl RadiosityMesh {
             })
             .collect();
         near.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
-        let mut budget = (BUDGET * self.vertices.len() as f32).max(MIN_BUDGET);
-        let mut used = 0.0;
-        let mut fine = HashMap::new();
-        for (p, _) in near {
-            let mp = &self.patches[p as usize];
-            let sides = if mp.twin.is_some() { 2.0 } else { 1.0 };
-            let added = (1.0 / (FRACTION * FRACTION) - 1.0) * mp.vertex_count as f32 * sides;
-            if added > budget {
-                continue;
-            }
-            budget -= added;
-            used += added;
-            fine.insert((mp.shape, mp.local), FRACTION);
-        }
-        (fine, used)
+        self.refine_within(near.into_iter().map(|(p, _)| p), FRACTION, 0.0)
     }
 }

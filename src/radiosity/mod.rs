@@ -253,17 +253,23 @@ pub struct Solution {
 impl Solution {
     /// Total reflected radiosity per vertex: general plus every listed source.
     pub fn total(&self) -> Vec<Rgb> {
-        let mut t = self.general.clone();
-        for (p, list) in self.lists.iter().enumerate() {
-            let first = self.mesh.patches[p].first_vertex as usize;
-            for e in list {
-                for (k, c) in e.occluded.iter().enumerate() {
-                    t[first + k] += *c;
-                }
+        total_radiosity(&self.mesh, &self.general, &self.lists)
+    }
+}
+
+/// Per vertex, the general radiosity plus the occluded light of every source its
+/// patch keeps apart: all the light the vertex has.
+fn total_radiosity(mesh: &RadiosityMesh, general: &[Rgb], lists: &[Vec<ListEntry>]) -> Vec<Rgb> {
+    let mut t = general.to_vec();
+    for (p, list) in lists.iter().enumerate() {
+        let first = mesh.patches[p].first_vertex as usize;
+        for e in list {
+            for (k, c) in e.occluded.iter().enumerate() {
+                t[first + k] += *c;
             }
         }
-        t
     }
+    t
 }
 
 /// Runs pass 1. `progress` hears the shot fraction of power, in thousandths.
@@ -750,15 +756,10 @@ impl Solver<'_> {
         let mut sums: Vec<Deposits> = (0..photons::KINDS).map(|_| Deposits::new(slots)).collect();
         // The light each vertex has from the shots, against which the photons' noise
         // is judged ([`noise`]), and when it is judged first.
-        let mut shot_light: Vec<f32> = self.general.iter().map(|g| mean(*g)).collect();
-        for (p, list) in self.lists.iter().enumerate() {
-            let first = self.mesh.patches[p].first_vertex as usize;
-            for e in list {
-                for (k, c) in e.occluded.iter().enumerate() {
-                    shot_light[first + k] += mean(*c);
-                }
-            }
-        }
+        let shot_light: Vec<f32> = total_radiosity(&self.mesh, &self.general, &self.lists)
+            .iter()
+            .map(|b| mean(*b))
+            .collect();
         let area: Vec<f32> = self.mesh.vertices.iter().map(|v| v.area).collect();
         let mut halves = noise::Halves::new(nv);
         let mut judge_at = noise::FIRST_PER_VERTEX * receiving;
@@ -770,7 +771,7 @@ impl Solver<'_> {
             let traced = tracer.trace_chunks(&order[done..end]);
             for (chunk, (deposits, rays)) in order[done..end].iter().zip(traced) {
                 self.stats.photon_rays += rays;
-                halves.add(*chunk, tracer.traced(&[*chunk]).iter().sum(), &deposits);
+                halves.add(*chunk, tracer.photons(*chunk).count() as u64, &deposits);
                 let sum = &mut sums[chunk.kind as usize];
                 for d in deposits {
                     sum.add(&d, nv);
@@ -788,7 +789,7 @@ impl Solver<'_> {
                 break;
             }
             // Settled: the photons so far stand for all of them.
-            let so_far: u64 = tracer.traced(&order[..done]).iter().sum();
+            let so_far: u64 = halves.traced().iter().sum();
             if so_far >= judge_at && done < order.len() {
                 judge_at = so_far + so_far / 4;
                 let n = halves.noise(tracer.counts(), &shot_light, &area);
@@ -798,7 +799,7 @@ impl Solver<'_> {
             }
         }
         progress.finish();
-        let traced = tracer.traced(&order[..done]);
+        let traced = halves.traced();
         self.stats.photons = traced.iter().sum();
         // The photons traced of each kind stand for all of that kind.
         for ((sum, n), t) in sums.into_iter().zip(tracer.counts()).zip(traced) {

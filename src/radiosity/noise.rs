@@ -59,6 +59,11 @@ impl Halves {
         }
     }
 
+    /// The photons of each kind traced so far (both halves).
+    pub(super) fn traced(&self) -> [u64; KINDS] {
+        self.traced.map(|[a, b]| a + b)
+    }
+
     /// The area-weighted mean over the vertices with light of half the difference
     /// between the halves' estimates over the vertex's light (`shot`: what the shots
     /// gave it; `counts`: the photons of each kind in all), or `None` while some kind

@@ -122,10 +122,7 @@ impl<'a> Tracer<'a> {
     pub fn chunk(&self, c: Chunk) -> (Vec<Deposit>, u64) {
         let mut out = Vec::new();
         let mut rays = 0;
-        let counts = self.counts();
-        let first: u64 = counts[..c.kind as usize].iter().sum();
-        let n = counts[c.kind as usize];
-        for i in first + c.index * CHUNK..first + ((c.index + 1) * CHUNK).min(n) {
+        for i in self.photons(c) {
             let seed = shot_seed(self.seed, SEED_BASE + i);
             let mut next = draws(seed, 1);
             let patch = i < self.patch_photons;
@@ -372,15 +369,13 @@ impl<'a> Tracer<'a> {
         interleave(self.counts())
     }
 
-    /// Photons of each kind in `chunks`.
-    pub fn traced(&self, chunks: &[Chunk]) -> [u64; KINDS] {
+    /// The photons of chunk `c`, by their index among all the photons, kind after
+    /// kind (a photon's seed).
+    pub fn photons(&self, c: Chunk) -> std::ops::Range<u64> {
         let counts = self.counts();
-        let mut out = [0; KINDS];
-        for c in chunks {
-            let n = counts[c.kind as usize];
-            out[c.kind as usize] += ((c.index + 1) * CHUNK).min(n) - c.index * CHUNK;
-        }
-        out
+        let first: u64 = counts[..c.kind as usize].iter().sum();
+        let n = counts[c.kind as usize];
+        first + (c.index * CHUNK).min(n)..first + ((c.index + 1) * CHUNK).min(n)
     }
 
     /// Traces `chunks` in parallel; their deposits and rays in the same order.
@@ -394,7 +389,7 @@ impl<'a> Tracer<'a> {
 /// (chunk j of a kind of c chunks comes at j / c of the way), so that any first part
 /// of them holds every kind in about its share. A solve cut short by `--solve-time`
 /// then still carries every kind's light, each scaled by the share of its own
-/// photons traced ([`Tracer::traced`]). Traced kind after kind, a glass bulb cut
+/// photons traced (`noise::Halves::traced`). Traced kind after kind, a glass bulb cut
 /// short had traced only its patches' photons, scaled up to stand for its light's
 /// too: FLIP 0.030 -> 0.082 at a second's budget.
 pub fn interleave(counts: [u64; KINDS]) -> Vec<Chunk> {
