@@ -535,7 +535,8 @@ const QUARTERS_WITHIN: f32 = 3.0;
 fn quarter_form_factors_near(sp: &ShootPoint, x: Vec3, n: Vec3) -> Option<[f32; 4]> {
     // The cell's geometry alone decides (not its light, nor its jittered point), so
     // that a kept shot's links stay valid for the patch's next shots.
-    if !sp.flat {
+    // A sky cell: its quarters send alike, and it is never near.
+    if !sp.flat || sp.far.is_some() {
         return None;
     }
     let poly = &sp.poly[..sp.len as usize];
