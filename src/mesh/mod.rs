@@ -23,6 +23,7 @@ mod cells;
 mod contact;
 mod cover;
 mod lattice;
+mod midpoints;
 mod near_light;
 mod pieces;
 mod size;
@@ -30,6 +31,7 @@ mod size;
 pub use albedo::{mean_albedo, textured_albedo};
 pub use cells::{point_in_polygon, quarter, ShootCell};
 pub use lattice::Lattice;
+pub use midpoints::{Between, Midpoints};
 pub use pieces::Piece;
 pub use size::{default_mesh_size, lit_diagonal};
 

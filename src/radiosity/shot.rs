@@ -5,6 +5,7 @@
 
 use glam::Vec3;
 
+use super::coherence::{Ends, Seen};
 use super::{transfer, AtVertex, Solver};
 use crate::emitters::SampledLight;
 use crate::geometry::{point_polygon_form_factor, polygon_vector_form_factor};
@@ -293,10 +294,26 @@ pub fn sky_cells(scene: &crate::scene::Scene, count: u32) -> Vec<ShootPoint> {
     out
 }
 
+/// The vertex a shot's light is gathered at: the vertex, its seed (which chooses
+/// where in each flat cell its shadow rays aim), and for a midpoint, what the
+/// coarse vertices about it found ([`super::coherence`]).
+pub(super) struct Receiver<'a> {
+    pub(super) v: &'a MeshVertex,
+    pub(super) seed: u32,
+    pub(super) ends: Option<&'a Ends<'a>>,
+}
+
+/// What a gather records beside the light: a kept shot's links, and a coarse
+/// vertex's visibility of each cell ([`super::coherence`]).
+#[derive(Default)]
+pub(super) struct Found<'a> {
+    pub(super) links: Option<&'a mut Vec<transfer::Link>>,
+    pub(super) seen: Option<&'a mut Seen>,
+}
+
 impl Solver<'_> {
-    /// Light from the cells of a shot at vertex `v`: (occluded, unoccluded)
-    /// irradiance and rays. `seed` (the vertex's own) chooses where in each flat cell
-    /// its shadow rays aim.
+    /// Light from the cells of a shot at a receiver: (occluded, unoccluded)
+    /// irradiance and rays.
     ///
     /// The form factor of each cell is exact; its visibility is sampled with
     /// coherence, as the shadow image buffer does it on the screen: `first_rays` over
@@ -310,8 +327,13 @@ impl Solver<'_> {
     /// [`EDGE_ERROR`] of the source's light at the vertex. A vertex that sees all or none of a source pays the
     /// first rays only.
     ///
+    /// At a midpoint, a cell that the coarse vertices about it found alike takes
+    /// their visibility and casts no ray, and is not sampled again at an edge
+    /// ([`super::coherence`]).
+    ///
     /// From a patch, `links` (if given) receives each cell's form factor and
-    /// visibility found, with the cell's index in the set plus `base`.
+    /// visibility found, with the cell's index in the set plus `base`; `seen` (if
+    /// given) which cells the vertex saw whole or not at all.
     pub(super) fn gather(
         &self,
         Cells {
@@ -319,11 +341,10 @@ impl Solver<'_> {
             points,
             touching,
         }: Cells<'_>,
-        v: &MeshVertex,
-        seed: u32,
+        Receiver { v, seed, ends }: Receiver<'_>,
         light: Option<&SampledLight>,
         first_rays: u32,
-        mut links: Option<&mut Vec<transfer::Link>>,
+        Found { mut links, seen }: Found<'_>,
     ) -> AtVertex {
         let (x, n) = (v.q, v.n);
         // Rays through of `per` to cell `k` (one at a point: a light in space, or a
@@ -367,11 +388,14 @@ impl Solver<'_> {
             (hits, light, per)
         };
         let (mut occ, mut unocc, mut rays) = (Vec3::ZERO, Vec3::ZERO, 0u64);
-        let (mut seen, mut hidden) = (false, false);
+        let (mut lit, mut hidden) = (false, false);
         // The cells that reach the vertex: each one's index, what it brings, and the
         // visibility its first rays found (the share of them that reached it, and the
         // share of its light they bring: less through thin glass).
         let mut reached: Vec<(usize, Vec3, f32, f32)> = Vec::with_capacity(points.len());
+        // Per reached cell, whether the coarse vertices about a midpoint settled it
+        // ([`super::coherence`]): no ray is cast to it.
+        let mut settled: Vec<bool> = Vec::with_capacity(points.len());
         let per = first_rays
             .div_ceil(points.len().max(1) as u32)
             .next_power_of_two();
@@ -413,13 +437,20 @@ impl Solver<'_> {
                 }
             };
             unocc += e;
-            let (hits, light, per) = through(k, per, 0);
-            rays += u64::from(per);
-            seen |= hits > 0;
-            hidden |= hits < per;
-            let (vis, val) = (hits as f32 / per as f32, light / per as f32);
+            let known = ends.and_then(|ends| ends.visibility(base, k));
+            let (vis, val) = match known {
+                Some(v) => (v, v),
+                None => {
+                    let (hits, light, per) = through(k, per, 0);
+                    rays += u64::from(per);
+                    (hits as f32 / per as f32, light / per as f32)
+                }
+            };
+            lit |= vis > 0.0;
+            hidden |= vis < 1.0;
             occ += e * val;
             reached.push((k, e, vis, val));
+            settled.push(known.is_some());
             if let Some(l) = links.as_deref_mut() {
                 l.push(transfer::Link {
                     cell: base + k as u32,
@@ -429,7 +460,23 @@ impl Solver<'_> {
                 });
             }
         }
-        if !(seen && hidden) {
+        // A coarse vertex records the cells it found whole or hidden: every cell
+        // where all of them agree, else those inside a lit or a hidden region (its
+        // touching cells found alike). A cell at a shadow's edge has a share that
+        // its few rays only estimate: an estimate that the midpoints took wherever
+        // their coarse vertices' draws agreed would be pulled towards 0 or 1.
+        let record = |calm: &dyn Fn(usize) -> bool| {
+            if let Some(seen) = seen {
+                *seen = Seen::new(base, points.len());
+                for (i, r) in reached.iter().enumerate() {
+                    if calm(i) {
+                        seen.set(r.0, r.3);
+                    }
+                }
+            }
+        };
+        if !(lit && hidden) {
+            record(&|_| true);
             return (occ, unocc, rays);
         }
         if reached.len() >= REFINE_RAYS as usize {
@@ -457,6 +504,13 @@ impl Solver<'_> {
             let least = mean(unocc) * EDGE_SHARE;
             // The sky's cells (a set is all of them or none).
             let sky = points.first().is_some_and(|p| p.far.is_some());
+            record(&|i| {
+                let (k, _, vis, _) = reached[i];
+                touching
+                    .of(k)
+                    .iter()
+                    .all(|&j| first_vis(j).is_none_or(|w| w == vis))
+            });
             // The edge cells: index in `reached`, the share of rays that reached it and
             // its light's after their edge rays.
             let mut edges: Vec<(usize, f32, f32)> = Vec::new();
@@ -469,6 +523,7 @@ impl Solver<'_> {
                 // The sky's cells are many and small against what an opening shows; a
                 // patch's cells keep the rule they were tuned with.
                 let edge = points[k].flat
+                    && !settled[i]
                     && mean(e) > least
                     && if sky {
                         let mut seen_vis = touching.of(k).iter().filter_map(|&j| first_vis(j));
@@ -503,7 +558,11 @@ impl Solver<'_> {
         }
         let per = REFINE_RAYS.div_ceil(reached.len() as u32).next_power_of_two();
         let mut refined = Vec3::ZERO;
-        for (i, &(k, e, _, _)) in reached.iter().enumerate() {
+        for (i, &(k, e, _, val)) in reached.iter().enumerate() {
+            if settled[i] {
+                refined += e * val;
+                continue;
+            }
             let (_, light, per) = through(k, per, 1);
             rays += u64::from(per);
             let val = light / per as f32;
@@ -512,6 +571,8 @@ impl Solver<'_> {
                 l[i].vis = val;
             }
         }
+        // A source of few cells, partly hidden: nothing recorded.
+        record(&|_| false);
         (refined, unocc, rays)
     }
 }

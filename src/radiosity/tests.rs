@@ -1434,3 +1434,55 @@ fn the_sky_through_a_small_opening_is_not_darkened_by_the_edge_rule() {
         want / n as f64
     );
 }
+
+/// Shadow coherence in pass 1 ([`coherence`]): under an area light that nothing
+/// hides, every coarse floor vertex sees all of every cell, so every midpoint takes
+/// the whole light from them and casts no ray; its light is still its own (the
+/// form factors are computed at the midpoint). At a shadow's edge the midpoints
+/// sample the cells their coarse vertices disagree on, as the two penumbra tests
+/// above check (their floors are mostly midpoints).
+#[test]
+fn midpoints_cast_no_rays_where_their_coarse_vertices_see_all_of_the_light() {
+    let floor = quad([v(-1., -1., 0.), v(1., -1., 0.), v(1., 1., 0.), v(-1., 1., 0.)]);
+    let lamp = quad([
+        v(-0.2, -0.2, 1.),
+        v(-0.2, 0.2, 1.),
+        v(0.2, 0.2, 1.),
+        v(0.2, -0.2, 1.),
+    ]);
+    let s = scene(
+        vec![(floor, Vec3::splat(0.5)), (lamp, Vec3::ZERO)],
+        vec![],
+        &[(1, Vec3::ONE)],
+    );
+    let sol = solve(&s, &Bvh::build(&s), &settings(0.05, 64, 0), &Silent).unwrap();
+    let mid = crate::mesh::Midpoints::of(&sol.mesh);
+    let floor = &sol.mesh.patches[0];
+    let first = floor.first_vertex as usize;
+    let vs = first..first + floor.vertex_count as usize;
+    let coarse = vs.clone().filter(|&i| mid.of_vertex(i).is_none()).count();
+    assert!(coarse * 3 < vs.len(), "{coarse} coarse of {}", vs.len());
+    // At most the 64 cells' first rays at each coarse vertex, none at a midpoint.
+    assert!(
+        sol.stats.rays <= 64 * coarse as u64 && sol.stats.rays >= 4 * coarse as u64,
+        "{} rays, {coarse} coarse vertices",
+        sol.stats.rays
+    );
+    let e = &sol.lists[0][0];
+    for i in vs {
+        let (o, u) = (e.occluded[i - first].x, e.unoccluded[i - first].x);
+        assert!(u > 0.0 && o == u, "vertex {i}: {o} of {u}");
+        let exact =
+            0.5 * point_polygon_form_factor(
+                sol.mesh.vertices[i].q,
+                Vec3::Z,
+                &[
+                    v(-0.2, -0.2, 1.),
+                    v(-0.2, 0.2, 1.),
+                    v(0.2, 0.2, 1.),
+                    v(0.2, -0.2, 1.),
+                ],
+            ) * PI;
+        assert!((u - exact).abs() < 0.02 * exact, "vertex {i}: {u} vs {exact}");
+    }
+}
