@@ -764,7 +764,9 @@ const AIM_PILOT_SEED: u32 = 0x41_494d;
 /// glossy metal, none on a diffuse surface. Glass passes on what it reflects, and
 /// what it bends (a solid glass object's caustic); what crosses it between parallel
 /// faces (a window pane, a bulb's wall) is the shots' light
-/// ([`crate::interaction::pane_transmittance`]).
+/// ([`crate::interaction::pane_transmittance`]); and what such a pane reflects
+/// lights nothing where it leaves the scene (the sky's light off a window's outer
+/// face): the glass window traced 290 k such photons for nothing (0.07 s).
 fn mirror_share(scene: &Scene, accel: &dyn Accel, e: &Emission) -> f64 {
     let ray = crate::interaction::emission_ray(e);
     let Some(h) = accel.intersect(&ray) else {
@@ -783,7 +785,12 @@ fn mirror_share(scene: &Scene, accel: &dyn Accel, e: &Emission) -> f64 {
     if !kind.is_glass() || crate::interaction::pane_transmittance(scene, accel, &ray) == 0.0 {
         return 1.0;
     }
-    let cos = sp.ng.dot(ray.dir).abs() / ray.dir.length();
+    let d = ray.dir.normalize();
+    let out = sp.spawn(crate::interaction::reflect(d, sp.ng), f32::INFINITY);
+    if accel.intersect(&out).is_none() {
+        return 0.0;
+    }
+    let cos = sp.ng.dot(d).abs();
     f64::from(mean(kind.mirror(cos)).clamp(0.0, 1.0))
 }
 
