@@ -786,7 +786,7 @@ fn mirror_share(scene: &Scene, accel: &dyn Accel, e: &Emission) -> f64 {
         return 1.0;
     }
     let d = ray.dir.normalize();
-    let out = sp.spawn(crate::interaction::reflect(d, sp.ng), f32::INFINITY);
+    let out = sp.spawn(reflect(d, sp.ng), f32::INFINITY);
     if accel.intersect(&out).is_none() {
         return 0.0;
     }
@@ -1092,6 +1092,55 @@ mod tests {
             assert!((aim.met - want).abs() < 0.05 * want, "{} vs {want}", aim.met);
             assert!(aim.success > success, "{}", aim.success);
         }
+    }
+
+    /// A thin pane of clear glass (1 x 1 m, facing up) seen by a sky: what it
+    /// reflects leaves the scene, so its photons would light nothing and none count
+    /// as meeting a mirror (what crosses it is the shots' light). Under a lamp in a
+    /// closed room, what it reflects stays in the room and counts: the reflected
+    /// share of the light that meets it (a thin pane's, 8 % at normal incidence).
+    #[test]
+    fn a_panes_reflection_counts_only_where_it_stays_in_the_scene() {
+        use crate::accel::Bvh;
+        use crate::scene::BsdfKind;
+        use crate::testutil::{box_inside, quad, scene_with, v};
+        let pane = || {
+            let q = quad([
+                v(-0.5, -0.5, 1.0),
+                v(0.5, -0.5, 1.0),
+                v(0.5, 0.5, 1.0),
+                v(-0.5, 0.5, 1.0),
+            ]);
+            vec![(q, BsdfKind::clear_glass(1.5, true))]
+        };
+        let met = |s: &Scene| {
+            let accel = Bvh::build(s);
+            let lights = SampledLight::prepare_all(s);
+            Aim::new(s, &accel, &lights).met
+        };
+        let open = scene_with(pane(), vec![crate::testutil::uniform_sky(1.0)], &[]);
+        assert_eq!(met(&open), 0.0);
+        let mut shapes = pane();
+        let white = BsdfKind::Diffuse {
+            reflectance: Vec3::splat(0.5),
+        };
+        shapes.extend(
+            box_inside(v(-2., -2., 0.), v(2., 2., 3.))
+                .into_iter()
+                .map(|f| (f, white.clone())),
+        );
+        let i = 2.0f32;
+        let lamp = crate::scene::Light::Point {
+            position: v(0.0, 0.0, 2.5),
+            intensity: Vec3::splat(i),
+        };
+        let room = scene_with(shapes, vec![lamp], &[]);
+        // The light that meets the pane: i times its solid angle from the lamp,
+        // 4 asin(a b / sqrt((a^2 + 4 d^2)(b^2 + 4 d^2))) = 4 asin(1 / 10) sr (a = b =
+        // 1, d = 1.5).
+        let meets = 4.0 * 0.1f64.asin() * f64::from(i);
+        let got = met(&room);
+        assert!(got > 0.05 * meets && got < 0.12 * meets, "{got} of {meets}");
     }
 
     /// A one-sided 2 x 2 m mirror floor at z = 0, facing up, cut into 8 x 8 squares
