@@ -962,7 +962,7 @@ impl Solver<'_> {
                 let between = midpoints.of_vertex(i).filter(|_| coherent)?;
                 let mut ends = Ends { seen: [None; 4] };
                 for (slot, &e) in ends.seen.iter_mut().zip(between.ends()) {
-                    *slot = seen[e as usize].as_ref();
+                    *slot = seen.get(e as usize).and_then(Option::as_ref);
                 }
                 Some((i, receive(i, Some(&ends), None)))
             })
