@@ -780,7 +780,8 @@ impl Solver<'_> {
             let traced = tracer.trace_chunks(&order[done..end]);
             for (chunk, (deposits, rays)) in order[done..end].iter().zip(traced) {
                 self.stats.photon_rays += rays;
-                halves.add(*chunk, tracer.photons(*chunk).count() as u64, &deposits);
+                let photons = tracer.photons(*chunk);
+                halves.add(*chunk, photons.end - photons.start, &deposits);
                 let sum = &mut sums[chunk.kind as usize];
                 for d in deposits {
                     sum.add(&d, nv);

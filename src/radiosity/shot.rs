@@ -99,7 +99,11 @@ impl Levels {
 
     /// The radiosity of every cell's quarters, as [`Self::radiosity`].
     pub(super) fn quarters(&self) -> Vec<[Rgb; 4]> {
-        self.sets.iter().flatten().map(|sp| sp.quarters).collect()
+        self.sets
+            .iter()
+            .flatten()
+            .map(|sp| sp.quarters.unwrap_or([sp.radiosity; 4]))
+            .collect()
     }
 }
 
@@ -179,10 +183,12 @@ pub(super) struct ShootPoint {
     pub(super) len: u8,
     /// Radiosity the cell emits (for point lights: the intensity).
     pub(super) radiosity: Rgb,
-    /// The radiosity of the cell's quarters ([`crate::mesh::quarter`]): a receiver
-    /// takes each quarter's form factor with its own radiosity
-    /// ([`quarter_form_factors_near`]).
-    pub(super) quarters: [Rgb; 4],
+    /// The radiosity of the cell's quarters ([`crate::mesh::quarter`]), for a
+    /// patch's cell: a receiver takes each quarter's form factor with its own
+    /// radiosity ([`quarter_form_factors_near`]). `None` for a cell that sends alike
+    /// from all of it (a light's, the sky's), whose quarters would sum to the
+    /// cell's form factor times its radiosity.
+    pub(super) quarters: Option<[Rgb; 4]>,
     /// Every point of `poly` is on the surface: each receiver aims at a point of its
     /// own in the cell, not at `p`.
     pub(super) flat: bool,
@@ -205,7 +211,7 @@ impl ShootPoint {
             poly: c.corners,
             len: c.len,
             radiosity: c.value * c.weight,
-            quarters: c.quarters.map(|q| q * c.weight),
+            quarters: Some(c.quarters.map(|q| q * c.weight)),
             flat: c.flat && c.len >= 3,
             far: None,
         }
@@ -215,7 +221,7 @@ impl ShootPoint {
     pub(super) fn uniform(c: &crate::mesh::ShootCell, radiosity: Rgb) -> Self {
         ShootPoint {
             radiosity: radiosity * c.weight,
-            quarters: [radiosity * c.weight; 4],
+            quarters: None,
             ..Self::from_cell(c)
         }
     }
@@ -227,7 +233,7 @@ impl ShootPoint {
             poly: [Vec3::ZERO; 4],
             len: 0,
             radiosity: intensity,
-            quarters: [intensity; 4],
+            quarters: None,
             flat: false,
             far: None,
         }
@@ -283,7 +289,7 @@ pub fn sky_cells(scene: &crate::scene::Scene, count: u32) -> Vec<ShootPoint> {
                         poly,
                         len: 4,
                         radiosity,
-                        quarters: [radiosity; 4],
+                        quarters: None,
                         flat: true,
                         far: Some(polygon_vector_form_factor(c, &poly)),
                     });
@@ -305,7 +311,6 @@ pub(super) struct Receiver<'a> {
 
 /// What a gather records beside the light: a kept shot's links, and a coarse
 /// vertex's visibility of each cell ([`super::coherence`]).
-#[derive(Default)]
 pub(super) struct Found<'a> {
     pub(super) links: Option<&'a mut Vec<transfer::Link>>,
     pub(super) seen: Option<&'a mut Seen>,
@@ -431,9 +436,9 @@ impl Solver<'_> {
                 if !(f > 0.0) {
                     continue;
                 }
-                match quarter_fs {
-                    Some(q) => sp.quarters.iter().zip(q).map(|(b, f)| *b * f).sum(),
-                    None => sp.radiosity * f,
+                match (quarter_fs, sp.quarters) {
+                    (Some(q), Some(b)) => b.iter().zip(q).map(|(b, f)| *b * f).sum(),
+                    _ => sp.radiosity * f,
                 }
             };
             unocc += e;
@@ -595,9 +600,11 @@ const QUARTERS_WITHIN: f32 = 3.0;
 /// 0.0391, 0.0362, but the conference's solve 15.8 s.
 fn quarter_form_factors_near(sp: &ShootPoint, x: Vec3, n: Vec3) -> Option<[f32; 4]> {
     // The cell's geometry alone decides (not its light, nor its jittered point), so
-    // that a kept shot's links stay valid for the patch's next shots.
-    // A sky cell: its quarters send alike, and it is never near.
-    if !sp.flat || sp.far.is_some() {
+    // that a kept shot's links stay valid for the patch's next shots. A light's or
+    // the sky's cell sends alike from all of it: its quarters would change nothing
+    // but the cost (the sky's far cells all counted as near, and took four clipped
+    // form factors each).
+    if !sp.flat || sp.quarters.is_none() {
         return None;
     }
     let poly = &sp.poly[..sp.len as usize];
