@@ -121,6 +121,13 @@ const REFUSED: &[(&str, &str, &str, &str)] = &[
     ("zero-area-light.xml", "", ":8:9", "singular"),
     ("reflectance-negative.xml", "", ":8:30", "outside [0, 1]"),
     ("reflectance-above-one.xml", "", ":8:30", "outside [0, 1]"),
+    ("spectrum-decreasing.xml", "", ":8:30", "increasing wavelengths"),
+    (
+        "spectrum-bad-file.xml",
+        "bad.spd",
+        ":3",
+        "expected 'wavelength value'",
+    ),
     ("film-zero.xml", "", ":4:30", "outside [1, 16384]"),
     ("film-negative.xml", "", ":4:63", "outside [1, 16384]"),
     ("film-absurd.xml", "", ":4:30", "outside [1, 16384]"),
@@ -163,6 +170,7 @@ const REFERRED: &[&str] = &[
     "other.xml",
     "damaged.sol",
     "not-a-solution.sol",
+    "bad.spd",
 ];
 
 #[test]

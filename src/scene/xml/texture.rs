@@ -1,13 +1,15 @@
 //! Colours: reflectance and emission values (`<rgb>`, `<spectrum>`, a grey
-//! `<float>`, a `<texture>`), spectra and textures, each reduced to one RGB colour.
+//! `<float>`, a `<texture>`): spectra as the colours Mitsuba 3's RGB modes make of
+//! them, textures as images or, where one colour must do, their mean.
 
 use glam::{Affine2, Vec3};
 use roxmltree::Node;
 
-use super::document::{read_text, Loader, Src};
+use super::document::{read_text, tag, Loader, Src};
 use super::parse;
 use super::properties::{Obj, Prop, Target, TexVal, Val};
 use crate::error::{Error, Pos};
+use crate::scene::spectrum::{self, Quantity};
 use crate::scene::texture::{TexFilter, TexWrap, Texture};
 use crate::scene::Rgb;
 use crate::Result;
@@ -91,27 +93,41 @@ impl<'a, 'i> Obj<'a, 'i> {
 }
 
 impl Loader {
-    /// `<spectrum>`: a uniform value; wavelength:value pairs or a file become their
-    /// mean, with a warning.
+    /// `<spectrum>`: one value, wavelength:value pairs, a file of them, or a
+    /// spectrum plugin (`type`), as the colour Mitsuba 3's RGB modes make of it
+    /// ([`spectrum`]): what the colour is of (a reflectance, an emitter's radiance,
+    /// an index of refraction) decides how it is weighed and clamped.
     pub(super) fn spectrum(&mut self, s: Src, c: Node) -> Result<Val> {
+        let name = c.attribute("name").unwrap_or_default();
+        let name = if s.legacy {
+            parse::snake_case(name)
+        } else {
+            name.to_string()
+        };
+        let in_emitter = c.parent_element().is_some_and(|p| tag(p) == "emitter");
+        let quantity = Quantity::of(&name, in_emitter);
+        if c.attribute("type").is_some() {
+            return self.spectrum_plugin(s, c, quantity);
+        }
         self.check_attrs(s, c, &["name", "value", "filename"]);
         let value = self.attr(s, c, "value")?;
         let file = self.attr(s, c, "filename")?;
-        let values: Vec<f32> = match (value, file) {
+        let pairs: Vec<(f32, f32)> = match (value, file) {
             (Some(v), None) => {
                 let toks = parse::tokens(&v);
                 let at = |m: String| s.err_attr(c, "value", format!("<spectrum>: {m}"));
                 if toks.len() == 1 && !toks[0].contains(':') {
-                    return Ok(Val::Rgb(Vec3::splat(parse::number(toks[0]).map_err(at)?)));
+                    let v = parse::number(toks[0]).map_err(at)?;
+                    return Ok(Val::Rgb(spectrum::flat(v, quantity)));
                 }
                 let mut out = Vec::new();
                 for t in toks {
-                    let Some((_, val)) = t.split_once(':') else {
+                    let Some((w, val)) = t.split_once(':') else {
                         return Err(at(format!(
                             "expected one value or wavelength:value pairs, found '{t}'"
                         )));
                     };
-                    out.push(parse::number(val).map_err(at)?);
+                    out.push((parse::number(w).map_err(at)?, parse::number(val).map_err(at)?));
                 }
                 out
             }
@@ -137,22 +153,97 @@ impl Loader {
                                 "expected 'wavelength value'",
                             )
                         })?;
-                    out.push(nums[1]);
+                    out.push((nums[0], nums[1]));
                 }
                 out
             }
             _ => return Err(s.err(c, "<spectrum> needs exactly one of 'value' and 'filename'")),
         };
-        if values.is_empty() {
-            return Err(s.err(c, "<spectrum> has no values"));
+        self.spectrum_colour(s, c, &pairs, quantity).map(Val::Rgb)
+    }
+
+    /// The colour of a spectrum given by `(wavelength, value)` pairs, with a warning
+    /// where it is out of gamut (clamped, as Mitsuba clamps it).
+    fn spectrum_colour(&mut self, s: Src, c: Node, pairs: &[(f32, f32)], quantity: Quantity) -> Result<Rgb> {
+        let Some(colour) = spectrum::colour(pairs, quantity) else {
+            return Err(s.err(
+                c,
+                format!(
+                    "<spectrum> needs at least two wavelength:value pairs with increasing wavelengths (found {})",
+                    pairs.iter().map(|(w, v)| format!("{w}:{v}")).collect::<Vec<_>>().join(", ")
+                ),
+            ));
+        };
+        if colour.clamped {
+            self.warn(
+                s,
+                c,
+                format!(
+                    "<spectrum> is outside sRGB's gamut: clamped to ({}, {}, {})",
+                    colour.rgb.x, colour.rgb.y, colour.rgb.z
+                ),
+            );
         }
-        let mean = values.iter().sum::<f32>() / values.len() as f32;
-        self.warn(
-            s,
-            c,
-            format!("non-uniform <spectrum> replaced by its mean value {mean}"),
-        );
-        Ok(Val::Rgb(Vec3::splat(mean)))
+        Ok(colour.rgb)
+    }
+
+    /// `<spectrum type="...">`: Mitsuba 3's spectrum plugins in its RGB modes
+    /// (`uniform`, `d65`, `srgb`), and `regular` and `irregular`, which those modes
+    /// reject, taken as their wavelength:value pairs would be.
+    fn spectrum_plugin(&mut self, s: Src, c: Node, quantity: Quantity) -> Result<Val> {
+        self.check_attrs(s, c, &["type", "name", "id"]);
+        let ty = self.attr_req(s, c, "type")?;
+        let obj = self.collect(s, c, format!("spectrum '{ty}'"))?;
+        let numbers = |name: &str| -> Result<Vec<f32>> {
+            let v = obj
+                .string(name)?
+                .ok_or_else(|| obj.err_param(name, "is missing"))?;
+            parse::numbers(&v).map_err(|m| obj.err_param(name, format!("= '{v}': {m}")))
+        };
+        let rgb = match ty.as_str() {
+            "uniform" => Vec3::splat(obj.float("value")?.unwrap_or(1.0)),
+            "d65" => obj.color("color", 1.0)? * obj.float("scale")?.unwrap_or(1.0),
+            "srgb" => obj.color("color", 1.0)?,
+            "regular" | "irregular" => {
+                let values = numbers("values")?;
+                let wavelengths = if ty == "regular" {
+                    let lo = obj.float("wavelength_min")?.ok_or_else(|| obj.err_param("wavelength_min", "is missing"))?;
+                    let hi = obj.float("wavelength_max")?.ok_or_else(|| obj.err_param("wavelength_max", "is missing"))?;
+                    let n = values.len().max(2) - 1;
+                    (0..values.len()).map(|i| lo + (hi - lo) * i as f32 / n as f32).collect()
+                } else {
+                    numbers("wavelengths")?
+                };
+                if wavelengths.len() != values.len() {
+                    return Err(obj.err_param(
+                        "values",
+                        format!("has {} values for {} wavelengths", values.len(), wavelengths.len()),
+                    ));
+                }
+                if let Some(n) = obj.int("size")? {
+                    if n != values.len() as i64 {
+                        return Err(obj.err_param("size", format!("= {n}, but {} values are given", values.len())));
+                    }
+                }
+                let pairs: Vec<(f32, f32)> = wavelengths.into_iter().zip(values).collect();
+                self.spectrum_colour(s, c, &pairs, quantity)?
+            }
+            "blackbody" => {
+                return Err(s.err(
+                    c,
+                    "spectrum 'blackbody' needs spectral rendering (Mitsuba 3's RGB modes reject it too): give the colour as <rgb>",
+                ))
+            }
+            t => {
+                return Err(s.err_attr(
+                    c,
+                    "type",
+                    format!("unknown spectrum type '{t}' (radtrace reads uniform, d65, srgb, regular and irregular)"),
+                ))
+            }
+        };
+        self.finish(&obj);
+        Ok(Val::Rgb(rgb))
     }
 
     /// A `<texture>`: an image (`bitmap`), or one reduced to one colour when that
