@@ -1,7 +1,7 @@
 //! BSDF plugins: `diffuse`, `conductor`, `roughconductor`, `plastic`, `roughplastic`,
 //! `dielectric`, `thindielectric`, `roughdielectric` (`roughdiffuse` becomes
-//! `diffuse`), `twosided`, `blendbsdf`, `bumpmap`, `normalmap`; the unsupported ones
-//! become diffuse or their nested bsdf.
+//! `diffuse`), `twosided`, `blendbsdf`, `bumpmap`, `normalmap`, `null`; the
+//! unsupported ones become diffuse or their nested bsdf.
 
 use glam::Vec3;
 use roxmltree::Node;
@@ -315,6 +315,19 @@ impl Loader {
                     format!("bsdf '{ty}' is not supported: rendered as diffuse with its base_color"),
                 );
                 (BsdfKind::Diffuse { reflectance }, false)
+            }
+            "null" => {
+                // An invisible surface (see `Loader::shape`); black where an
+                // emitter keeps it.
+                if let Some(id) = self.attr(s, c, "id")? {
+                    self.null_bsdfs.insert(id);
+                }
+                (
+                    BsdfKind::Diffuse {
+                        reflectance: Vec3::ZERO,
+                    },
+                    false,
+                )
             }
             t => {
                 obj.mark_all();

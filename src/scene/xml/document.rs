@@ -95,6 +95,8 @@ pub(super) struct Loader {
     pub(super) scene: Scene,
     pub(super) ids: HashMap<String, (Target, String)>,
     pub(super) bsdf_index: HashMap<String, u32>,
+    /// The ids of `null` bsdfs: a shape that names one is invisible.
+    pub(super) null_bsdfs: HashSet<String>,
     /// The shapes of each `shapegroup`, by id, in the group's own space.
     pub(super) groups: HashMap<String, Vec<crate::scene::Shape>>,
     pub(super) default_bsdf: [Option<u32>; 2],
@@ -140,6 +142,7 @@ impl Loader {
             },
             ids: HashMap::new(),
             bsdf_index: HashMap::new(),
+            null_bsdfs: HashSet::new(),
             groups: HashMap::new(),
             default_bsdf: [None; 2],
             include_stack: vec![path.canonicalize().unwrap_or(path.to_path_buf())],

@@ -133,6 +133,7 @@ impl Loader {
         }
 
         let mut bsdf = None;
+        let mut null = false;
         let mut emitter: Option<(Rgb, Node)> = None;
         for ch in &obj.children {
             match ch {
@@ -140,6 +141,7 @@ impl Loader {
                     if bsdf.is_some() {
                         return Err(s.err(*n, format!("shape '{name}' has more than one bsdf")));
                     }
+                    null = n.attribute("type") == Some("null");
                     let b = self.bsdf(s, *n)?;
                     let bid = self.attr(s, *n, "id")?;
                     bsdf = Some(self.add_bsdf(b, bid.as_deref()));
@@ -152,6 +154,7 @@ impl Loader {
                     if bsdf.is_some() {
                         return Err(s.err(*node, format!("shape '{name}' has more than one bsdf")));
                     }
+                    null = self.null_bsdfs.contains(id);
                     bsdf = Some(self.add_bsdf(b.clone(), Some(id)));
                 }
                 Child::Ref { node, id, target } => {
@@ -176,6 +179,22 @@ impl Loader {
             }
         }
         self.finish(&obj);
+        // A `null` bsdf makes the surface invisible, as in Mitsuba: rays pass it (it
+        // bounds a medium there, which radtrace does not render). An emitter on it
+        // still glows; its surface then stops rays, black.
+        if null {
+            match emitter {
+                None => return Ok(()),
+                Some((_, n)) => self.warn(
+                    s,
+                    n,
+                    format!(
+                        "area emitter on shape '{name}' with a 'null' bsdf: its surface stops \
+                         rays (black), where Mitsuba lets them pass"
+                    ),
+                ),
+            }
+        }
 
         let bsdf = match bsdf {
             Some(b) => b,

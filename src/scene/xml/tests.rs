@@ -279,6 +279,33 @@ fn spectra_in_emitters_and_spectrum_plugins() {
     assert!(l.warnings.is_empty(), "{:?}", l.warnings);
 }
 
+/// A `null` bsdf is an invisible surface, as in Mitsuba: its shape is left out,
+/// whether the bsdf is nested or named by id; an emitter on one keeps its shape
+/// (black), with a warning.
+#[test]
+fn a_null_bsdf_leaves_its_shape_out() {
+    let l = ok(&[
+        r#"<bsdf type="null" id="nothing"/>"#,
+        r#"<shape type="cube"><bsdf type="null"/></shape>"#,
+        r#"<shape type="sphere"><ref id="nothing"/></shape>"#,
+        r#"<shape type="rectangle"><bsdf type="diffuse"/></shape>"#,
+        r#"<shape type="disk"><ref id="nothing"/><emitter type="area"><rgb name="radiance" value="2"/></emitter></shape>"#,
+    ]);
+    assert_eq!(l.scene.shapes.len(), 2);
+    assert!(
+        l.scene.shapes[0].name.starts_with("rectangle"),
+        "{}",
+        l.scene.shapes[0].name
+    );
+    assert_eq!(l.scene.lights.len(), 1);
+    assert!(matches!(
+        l.scene.bsdfs[l.scene.shapes[1].bsdf as usize].kind,
+        BsdfKind::Diffuse { reflectance } if reflectance == Vec3::ZERO
+    ));
+    assert!(has_warning(&l, 7, "'null' bsdf"), "{:?}", l.warnings);
+    assert_eq!(l.warnings.len(), 1, "{:?}", l.warnings);
+}
+
 /// A reflectance out of gamut is clamped with a warning naming the line; a spectrum
 /// that cannot be read gives one error line.
 #[test]
