@@ -294,7 +294,11 @@ value_enum!(Sampler {
 });
 value_enum!(Filter {
     Box => "Equal weights for the samples inside the pixel's square (the paper's)",
+    Tent => "Mitsuba's tent: 1 - |x| out to 1 px",
     Gaussian => "Mitsuba's Gaussian: stddev 0.5 px, radius 2 px",
+    Mitchell => "Mitsuba's Mitchell-Netravali cubic (B = C = 1/3), radius 2 px",
+    Catmullrom => "Mitsuba's Catmull-Rom cubic, radius 2 px",
+    Lanczos => "Mitsuba's Lanczos sinc, 3 lobes",
 });
 value_enum!(SelectPer {
     Patch => "Each patch chooses its own sources",

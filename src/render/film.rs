@@ -9,6 +9,8 @@
 //! of weighted sums as they come ([`film_rows`]), so memory follows the pixels, not the
 //! samples.
 
+use std::f32::consts::PI;
+
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -28,11 +30,15 @@ pub struct FilmSample {
 pub use crate::scene::Filter;
 
 impl Filter {
-    /// The name used on the command line and in the statistics.
+    /// The name used on the command line, in scene files and in the statistics.
     pub fn name(self) -> &'static str {
         match self {
             Filter::Box => "box",
+            Filter::Tent => "tent",
             Filter::Gaussian => "gaussian",
+            Filter::Mitchell => "mitchell",
+            Filter::Catmullrom => "catmullrom",
+            Filter::Lanczos => "lanczos",
         }
     }
 
@@ -40,28 +46,55 @@ impl Filter {
     pub fn radius(self) -> f32 {
         match self {
             Filter::Box => 0.5,
-            Filter::Gaussian => 2.0,
+            Filter::Tent => 1.0,
+            Filter::Gaussian | Filter::Mitchell | Filter::Catmullrom => 2.0,
+            Filter::Lanczos => 3.0,
         }
     }
 
+    /// Whether some weights are below 0.
+    pub fn dips(self) -> bool {
+        matches!(self, Filter::Mitchell | Filter::Catmullrom | Filter::Lanczos)
+    }
+
     /// 1D weight at offset `d` from the pixel centre; the 2D weight is separable.
+    /// Mitchell's, Catmull and Rom's and Lanczos's dip below 0 (they sharpen).
     pub fn eval(self, d: f32) -> f32 {
+        let x = d.abs();
+        if x > self.radius() {
+            return 0.0;
+        }
         match self {
-            Filter::Box => {
-                if d.abs() <= 0.5 {
-                    1.0
-                } else {
-                    0.0
-                }
-            }
+            Filter::Box => 1.0,
+            Filter::Tent => 1.0 - x,
             Filter::Gaussian => {
                 const STDDEV: f32 = 0.5;
                 let alpha = -1.0 / (2.0 * STDDEV * STDDEV);
                 let edge = (alpha * 4.0).exp(); // at radius 2
-                ((alpha * d * d).exp() - edge).max(0.0)
+                ((alpha * x * x).exp() - edge).max(0.0)
+            }
+            Filter::Mitchell => cubic(x, 1.0 / 3.0, 1.0 / 3.0),
+            Filter::Catmullrom => cubic(x, 0.0, 0.5),
+            Filter::Lanczos => {
+                if x < f32::EPSILON {
+                    return 1.0;
+                }
+                let (a, b) = (PI * x, PI * x / 3.0);
+                a.sin() * b.sin() / (a * b)
             }
         }
     }
+}
+
+/// Mitchell and Netravali's cubic of parameters `b` and `c` at `x` in [0, 2].
+fn cubic(x: f32, b: f32, c: f32) -> f32 {
+    let (x2, x3) = (x * x, x * x * x);
+    let v = if x < 1.0 {
+        (12.0 - 9.0 * b - 6.0 * c) * x3 + (-18.0 + 12.0 * b + 6.0 * c) * x2 + (6.0 - 2.0 * b)
+    } else {
+        (-b - 6.0 * c) * x3 + (6.0 * b + 30.0 * c) * x2 + (-12.0 * b - 48.0 * c) * x + (8.0 * b + 24.0 * c)
+    };
+    v / 6.0
 }
 
 /// Filter-weighted sums of samples for rows `first_row..first_row + rows` of a
@@ -75,6 +108,10 @@ pub struct Film {
     filter: Filter,
     sum: Vec<Vec3>,
     weight: Vec<f32>,
+    /// With a filter that dips below 0: the sums of the positive weights alone, which
+    /// a pixel falls back to where its negative weights nearly cancel the rest (few
+    /// samples about it, all in a lobe); empty otherwise.
+    positive: Vec<(Vec3, f32)>,
 }
 
 impl Film {
@@ -89,6 +126,11 @@ impl Film {
             filter,
             sum: vec![Vec3::ZERO; n],
             weight: vec![0.0; n],
+            positive: if filter.dips() {
+                vec![(Vec3::ZERO, 0.0); n]
+            } else {
+                Vec::new()
+            },
         }
     }
 
@@ -113,9 +155,16 @@ impl Film {
             let row = ((y - self.first_row) * self.width as i64) as usize;
             for x in (px - reach).max(0)..=(px + reach).min(self.width as i64 - 1) {
                 let wgt = self.filter.eval(s.x - (x as f32 + 0.5)) * wy * share;
+                let i = row + x as usize;
+                if wgt != 0.0 {
+                    self.sum[i] += s.value * wgt;
+                    self.weight[i] += wgt;
+                }
                 if wgt > 0.0 {
-                    self.sum[row + x as usize] += s.value * wgt;
-                    self.weight[row + x as usize] += wgt;
+                    if let Some(p) = self.positive.get_mut(i) {
+                        p.0 += s.value * wgt;
+                        p.1 += wgt;
+                    }
                 }
             }
         }
@@ -133,15 +182,36 @@ impl Film {
             for x in 0..w {
                 self.sum[a + x] += other.sum[b + x];
                 self.weight[a + x] += other.weight[b + x];
+                if let (Some(p), Some(q)) = (self.positive.get_mut(a + x), other.positive.get(b + x)) {
+                    p.0 += q.0;
+                    p.1 += q.1;
+                }
             }
         }
     }
 
-    /// The pixels: weighted sums over weights (black where no sample reached).
+    /// The pixels: weighted sums over weights (black where no sample reached). With
+    /// a filter that dips below 0, a pixel whose weights add up to under half its
+    /// positive ones takes the positive ones alone.
     pub fn image(&self) -> Image {
         let mut img = Image::new(self.width, self.rows);
-        for (px, (s, &w)) in img.pixels.iter_mut().zip(self.sum.iter().zip(&self.weight)) {
-            *px = if w > 0.0 { *s / w } else { Vec3::ZERO };
+        for (i, (px, (s, &w))) in img
+            .pixels
+            .iter_mut()
+            .zip(self.sum.iter().zip(&self.weight))
+            .enumerate()
+        {
+            *px = match self.positive.get(i) {
+                Some(&(ps, pw)) if !(w > 0.5 * pw) => {
+                    if pw > 0.0 {
+                        ps / pw
+                    } else {
+                        Vec3::ZERO
+                    }
+                }
+                _ if w > 0.0 => *s / w,
+                _ => Vec3::ZERO,
+            };
         }
         img
     }
@@ -190,6 +260,61 @@ mod tests {
         .0
     }
 
+    const ALL: [Filter; 6] = [
+        Filter::Box,
+        Filter::Tent,
+        Filter::Gaussian,
+        Filter::Mitchell,
+        Filter::Catmullrom,
+        Filter::Lanczos,
+    ];
+
+    /// Closed forms: the tent's line, Mitchell and Netravali's cubic (B = C = 1/3:
+    /// 16/18 at 0, 1/18 at 1; Catmull-Rom interpolates, 1 at 0 and 0 at 1), Lanczos
+    /// at 1/2: sin(pi/2) sin(pi/6) / (pi^2/12). Each is 0 at its radius, and the
+    /// names are Mitsuba's.
+    #[test]
+    fn filters_have_their_closed_forms() {
+        let near = |a: f32, b: f32| (a - b).abs() < 1e-6;
+        assert!(near(Filter::Tent.eval(0.25), 0.75) && near(Filter::Tent.eval(-0.5), 0.5));
+        assert!(near(Filter::Mitchell.eval(0.0), 16.0 / 18.0));
+        assert!(near(Filter::Mitchell.eval(1.0), 1.0 / 18.0));
+        assert!(Filter::Mitchell.eval(1.5) < 0.0);
+        assert!(near(Filter::Catmullrom.eval(0.0), 1.0) && near(Filter::Catmullrom.eval(1.0), 0.0));
+        assert!(near(Filter::Lanczos.eval(0.0), 1.0) && near(Filter::Lanczos.eval(2.0), 0.0));
+        assert!(near(Filter::Lanczos.eval(0.5), 0.5 / (PI * PI / 12.0)));
+        for f in ALL {
+            assert!(near(f.eval(f.radius()), 0.0) || f == Filter::Box, "{f:?}");
+            assert_eq!(f.eval(f.radius() + 0.01), 0.0);
+            assert_eq!(f.dips(), (0..300).any(|k| f.eval(k as f32 * 0.01) < 0.0), "{f:?}");
+        }
+        let names: Vec<&str> = ALL.iter().map(|f| f.name()).collect();
+        assert_eq!(
+            names,
+            ["box", "tent", "gaussian", "mitchell", "catmullrom", "lanczos"]
+        );
+    }
+
+    /// A pixel whose only samples lie in a filter's negative lobes still gets their
+    /// light, not a black, negative or blown-up value.
+    #[test]
+    fn a_pixel_reached_only_by_negative_lobes_takes_the_positive_weights() {
+        // One sample, 1.5 px right of pixel 0's centre: Mitchell's weight is below 0
+        // there for pixel 0 and above 0 for pixels 1 and 2.
+        let s = FilmSample {
+            x: 2.0,
+            y: 0.5,
+            value: Vec3::splat(3.0),
+        };
+        assert!(Filter::Mitchell.eval(1.5) < 0.0);
+        let img = film(4, 1, Filter::Mitchell, &[(s, 1)]);
+        for p in &img.pixels {
+            assert!(p.is_finite() && p.min_element() >= 0.0, "{p}");
+        }
+        assert_eq!(img.pixels[1], Vec3::splat(3.0));
+        assert_eq!(img.pixels[0], Vec3::ZERO);
+    }
+
     #[test]
     fn gaussian_reaches_zero_at_its_radius_and_peaks_at_the_centre() {
         let f = Filter::Gaussian;
@@ -217,7 +342,7 @@ mod tests {
                 })
             })
             .collect();
-        for f in [Filter::Box, Filter::Gaussian] {
+        for f in ALL {
             let img = film(w, h, f, &samples);
             for p in &img.pixels {
                 assert!((*p - Vec3::new(0.2, 0.4, 0.8)).length() < 1e-6);

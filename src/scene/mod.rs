@@ -450,9 +450,17 @@ pub struct Shape {
 pub enum Filter {
     /// Equal weights for the samples inside the pixel's square (the paper's).
     Box,
+    /// Mitsuba's `tent`: 1 - |x| out to 1 px.
+    Tent,
     /// Mitsuba's Gaussian: stddev 0.5 px, radius 2 px, shifted to reach 0 at the radius.
     #[default]
     Gaussian,
+    /// Mitsuba's `mitchell`: the Mitchell-Netravali cubic of B = C = 1/3, radius 2 px.
+    Mitchell,
+    /// Mitsuba's `catmullrom`: the Mitchell-Netravali cubic of B = 0, C = 1/2.
+    Catmullrom,
+    /// Mitsuba's `lanczos`: the sinc windowed by a sinc, three lobes (radius 3 px).
+    Lanczos,
 }
 
 /// Which axis `fov` spans (Mitsuba's `fov_axis`).

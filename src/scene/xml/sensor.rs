@@ -192,32 +192,47 @@ impl Loader {
         Ok((w, h, filter))
     }
 
-    /// A film's reconstruction filter: `box`, or `gaussian` (Mitsuba's, of standard
-    /// deviation 0.5 px); the others Mitsuba has (`tent`, `mitchell`, `catmullrom`,
-    /// `lanczos`) and other deviations are read as the Gaussian, with a warning.
+    /// A film's reconstruction filter: Mitsuba's `box`, `tent`, `gaussian`,
+    /// `mitchell`, `catmullrom` and `lanczos`, at Mitsuba's default parameters; other
+    /// parameters are read as the defaults, with a warning.
     fn rfilter(&mut self, s: Src, c: Node) -> Result<Filter> {
         self.check_attrs(s, c, &["type", "id", "name"]);
         let ty = self.attr_req(s, c, "type")?;
         let obj = self.collect(s, c, format!("rfilter '{ty}'"))?;
-        let filter = match ty.as_str() {
-            "box" => Filter::Box,
-            "gaussian" => {
-                if let Some(d) = obj.float("stddev")? {
-                    if (d - 0.5).abs() > 1e-6 {
-                        self.warn(s, c, format!("rfilter 'gaussian' of stddev {d} read as 0.5"));
-                    }
-                }
-                Filter::Gaussian
-            }
+        // (filter, its parameters and their defaults)
+        let (filter, params): (Filter, &[(&str, f32)]) = match ty.as_str() {
+            "box" => (Filter::Box, &[]),
+            "tent" => (Filter::Tent, &[("radius", 1.0)]),
+            "gaussian" => (Filter::Gaussian, &[("stddev", 0.5)]),
+            "mitchell" => (Filter::Mitchell, &[("B", 1.0 / 3.0), ("C", 1.0 / 3.0)]),
+            "catmullrom" => (Filter::Catmullrom, &[]),
+            "lanczos" => (Filter::Lanczos, &[("lobes", 3.0)]),
             other => {
                 self.warn(
                     s,
                     c,
-                    format!("rfilter '{other}' read as 'gaussian': radtrace has 'box' and 'gaussian'"),
+                    format!(
+                        "rfilter '{other}' read as 'gaussian': radtrace has 'box', 'tent', \
+                         'gaussian', 'mitchell', 'catmullrom' and 'lanczos'"
+                    ),
                 );
-                Filter::Gaussian
+                (Filter::Gaussian, &[])
             }
         };
+        for &(name, default) in params {
+            let given = match obj.get(name).map(|p| &p.val) {
+                Some(Val::Float(v)) => Some(*v),
+                Some(Val::Int(i)) => Some(*i as f32),
+                _ => None,
+            };
+            if let Some(v) = given.filter(|v| (v - default).abs() > 1e-6) {
+                self.warn(
+                    s,
+                    c,
+                    format!("rfilter '{ty}' with {name} {v} read with Mitsuba's default, {default}"),
+                );
+            }
+        }
         obj.mark_all();
         Ok(filter)
     }

@@ -742,8 +742,9 @@ fn sensor_fov_film_sampler() {
 }
 
 /// A film's `rfilter` is read: a box stays a box (Mitsuba's 0.6 scenes often ask for
-/// one: the wooden staircase, the classroom), the Gaussian of other deviations and the
-/// filters radtrace lacks are read as its Gaussian with a warning naming the line.
+/// one: the wooden staircase, the classroom), `tent`, `mitchell`, `catmullrom` and
+/// `lanczos` as Mitsuba has them; other parameters than Mitsuba's defaults are read
+/// as those, and a filter Mitsuba lacks as the Gaussian, with a warning naming the line.
 #[test]
 fn a_films_rfilter_is_read() {
     let film = |inner: &str| {
@@ -762,15 +763,43 @@ fn a_films_rfilter_is_read() {
     let (g, w) = f(r#"<rfilter type="gaussian"><float name="stddev" value="0.5"/></rfilter>"#);
     assert_eq!(g, Some(crate::scene::Filter::Gaussian));
     assert!(!w.iter().any(|w| w.contains("rfilter")), "{w:?}");
-    for (inner, says) in [
-        (r#"<rfilter type="tent"/>"#, "rfilter 'tent' read as 'gaussian'"),
+    use crate::scene::Filter;
+    for (inner, filter) in [
+        (r#"<rfilter type="tent"/>"#, Filter::Tent),
         (
-            r#"<rfilter type="gaussian"><float name="stddev" value="0.25"/></rfilter>"#,
-            "stddev 0.25 read as 0.5",
+            r#"<rfilter type="tent"><float name="radius" value="1"/></rfilter>"#,
+            Filter::Tent,
+        ),
+        (r#"<rfilter type="mitchell"/>"#, Filter::Mitchell),
+        (r#"<rfilter type="catmullrom"/>"#, Filter::Catmullrom),
+        (
+            r#"<rfilter type="lanczos"><integer name="lobes" value="3"/></rfilter>"#,
+            Filter::Lanczos,
         ),
     ] {
         let (g, w) = f(inner);
-        assert_eq!(g, Some(crate::scene::Filter::Gaussian));
+        assert_eq!(g, Some(filter));
+        assert!(!w.iter().any(|w| w.contains("rfilter")), "{w:?}");
+    }
+    for (inner, filter, says) in [
+        (
+            r#"<rfilter type="sinc"/>"#,
+            Filter::Gaussian,
+            "rfilter 'sinc' read as 'gaussian'",
+        ),
+        (
+            r#"<rfilter type="gaussian"><float name="stddev" value="0.25"/></rfilter>"#,
+            Filter::Gaussian,
+            "stddev 0.25 read with Mitsuba's default, 0.5",
+        ),
+        (
+            r#"<rfilter type="lanczos"><integer name="lobes" value="2"/></rfilter>"#,
+            Filter::Lanczos,
+            "lobes 2 read with Mitsuba's default, 3",
+        ),
+    ] {
+        let (g, w) = f(inner);
+        assert_eq!(g, Some(filter));
         assert!(w.iter().any(|w| w.contains(":2:") && w.contains(says)), "{w:?}");
     }
     // A Mitsuba 0.6 file's box filter, as the staircase's.
