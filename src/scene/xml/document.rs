@@ -108,6 +108,9 @@ pub(super) struct Loader {
     pub(super) notes: Vec<String>,
     /// Image files read, with their `raw` flag: their index in the scene's textures.
     pub(super) images: HashMap<(PathBuf, bool), u32>,
+    /// Folders that `<path>` elements named, the latest first: searched for files
+    /// before the scene's own folders, as Mitsuba's file resolver does.
+    search: Vec<PathBuf>,
 }
 
 pub(super) fn tag<'a>(n: Node<'a, '_>) -> &'a str {
@@ -149,6 +152,7 @@ impl Loader {
             legacy: false,
             notes: Vec::new(),
             images: HashMap::new(),
+            search: Vec::new(),
         }
     }
 
@@ -205,12 +209,16 @@ impl Loader {
         Ok(())
     }
 
-    /// A path named in file `s`: relative to that file's folder, else to the main
-    /// scene's folder (as Mitsuba's file resolver), else as given.
+    /// A path named in file `s`: in a folder a `<path>` named, else relative to that
+    /// file's folder, else to the main scene's folder (as Mitsuba's file resolver),
+    /// else as given.
     pub(super) fn resolve(&self, s: Src, name: &str) -> PathBuf {
         let p = Path::new(name);
         if p.is_absolute() {
             return p.to_path_buf();
+        }
+        if let Some(found) = self.search.iter().map(|d| d.join(p)).find(|f| f.exists()) {
+            return found;
         }
         let here = s.path.parent().unwrap_or(Path::new("")).join(p);
         if here.exists() {
@@ -335,12 +343,13 @@ impl Loader {
             "sensor" => self.sensor(s, c),
             "integrator" => self.integrator(s, c),
             "alias" => self.alias(s, c),
+            "path" => self.search_path(s, c),
             t @ ("float" | "integer" | "boolean" | "string" | "rgb" | "spectrum" | "point" | "vector"
             | "transform" | "ref") => {
                 self.warn(s, c, format!("<{t}> directly inside <scene> ignored"));
                 Ok(())
             }
-            t @ ("medium" | "phase" | "volume" | "film" | "sampler" | "rfilter" | "path") => {
+            t @ ("medium" | "phase" | "volume" | "film" | "sampler" | "rfilter") => {
                 self.warn(s, c, format!("unsupported element <{t}> ignored"));
                 Ok(())
             }
@@ -349,6 +358,24 @@ impl Loader {
                 Ok(())
             }
         }
+    }
+
+    /// `<path value="folder"/>`: a folder searched for the files the scene names
+    /// (relative to the file that names it), before the scene's own, as in Mitsuba.
+    fn search_path(&mut self, s: Src, c: Node) -> Result<()> {
+        self.check_attrs(s, c, &["value"]);
+        let value = self.attr_req(s, c, "value")?;
+        let given = Path::new(&value);
+        let dir = if given.is_absolute() {
+            given.to_path_buf()
+        } else {
+            s.path.parent().unwrap_or(Path::new("")).join(given)
+        };
+        if !dir.is_dir() {
+            return Err(s.err_attr(c, "value", format!("<path>: folder '{value}' not found")));
+        }
+        self.search.insert(0, dir);
+        Ok(())
     }
 
     pub(super) fn default(&mut self, s: Src, c: Node) -> Result<()> {

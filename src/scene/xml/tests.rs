@@ -1563,6 +1563,29 @@ fn unreadable_paths_are_errors() {
     assert!(m.contains("bin.xml"), "{m}");
 }
 
+/// `<path>` adds a folder searched for the files the scene names, before the
+/// scene's own folder, as Mitsuba's file resolver does; a missing folder is an error
+/// at its line.
+#[test]
+fn a_path_element_adds_a_folder_to_search() {
+    let (dir, path) = write_scene(&scene(&[
+        r#"<path value="meshes"/>"#,
+        r#"<shape type="obj"><string name="filename" value="tri.obj"/></shape>"#,
+    ]));
+    fs::create_dir(dir.path().join("meshes")).unwrap();
+    let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    fs::write(dir.path().join("meshes/tri.obj"), tri).unwrap();
+    // A file of the same name beside the scene comes after the searched folder.
+    fs::write(dir.path().join("tri.obj"), "v 0 0 0\nv 2 0 0\nv 0 2 0\nf 1 2 3\n").unwrap();
+    let l = load(&path, &[]).unwrap();
+    assert_eq!(l.scene.shapes.len(), 1);
+    let b = l.scene.shapes[0].mesh.bounds().unwrap();
+    assert!((b.1.x - 1.0).abs() < 1e-6, "{b:?}");
+    assert!(!l.warnings.iter().any(|w| w.contains("path")), "{:?}", l.warnings);
+    let m = err(&[r#"<path value="nowhere"/>"#], 3);
+    assert!(m.contains("folder 'nowhere' not found"), "{m}");
+}
+
 // ------------------------------------------------------------- fixture
 
 #[test]
