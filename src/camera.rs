@@ -1,15 +1,21 @@
-//! The pinhole camera of a Mitsuba `perspective` sensor.
+//! The cameras of Mitsuba's `perspective` sensor (a pinhole) and `orthographic` one
+//! (parallel rays).
 
 use glam::{Mat4, Vec3};
 
 use crate::accel::Ray;
-use crate::scene::Sensor;
+use crate::scene::{Projection, Sensor};
 
 /// Generates primary rays through film positions.
 #[derive(Debug, Clone)]
 pub struct Camera {
     to_world: Mat4,
+    /// Orthographic: the film's local extent is [-1, 1] x [-1, 1] / aspect, rays
+    /// parallel along local +z.
+    parallel: bool,
     origin: Vec3,
+    /// Perspective: tangents of the half field of view; orthographic: the film's
+    /// half extent in local units (1 and 1 / aspect).
     tan_x: f32,
     tan_y: f32,
     width: f32,
@@ -25,9 +31,15 @@ impl Camera {
         let mut s = sensor.clone();
         s.width = width;
         s.height = height;
-        let (tan_x, tan_y) = s.tan_half_fov();
+        let parallel = s.projection == Projection::Orthographic;
+        let (tan_x, tan_y) = if parallel {
+            (1.0, height as f32 / width as f32)
+        } else {
+            s.tan_half_fov()
+        };
         Camera {
             to_world: s.to_world,
+            parallel,
             origin: s.to_world.transform_point3(Vec3::ZERO),
             tan_x,
             tan_y,
@@ -45,6 +57,18 @@ impl Camera {
         // Mitsuba's camera space: +z forward, +y up, +x towards the image's left.
         let cx = (1.0 - 2.0 * x / self.width) * self.tan_x;
         let cy = (1.0 - 2.0 * y / self.height) * self.tan_y;
+        if self.parallel {
+            // From the near plane, along local +z; the clip planes are local
+            // distances, scaled with the rest.
+            let z = self.to_world.transform_vector3(Vec3::Z);
+            let len = z.length();
+            return Ray {
+                origin: self.to_world.transform_point3(Vec3::new(cx, cy, self.near)),
+                dir: z / len,
+                tmin: 0.0,
+                tmax: (self.far - self.near) * len,
+            };
+        }
         let local = Vec3::new(cx, cy, 1.0);
         let inv_len = local.length_recip();
         let dir = self.to_world.transform_vector3(local * inv_len).normalize();
@@ -57,25 +81,36 @@ impl Camera {
         }
     }
 
-    /// The eye (centre of projection).
+    /// The eye (centre of projection; an orthographic camera's film centre).
     pub fn eye(&self) -> Vec3 {
         self.origin
     }
 
-    /// Pixels per unit length at unit distance in front of the eye, on the optical
-    /// axis: how large something looks on the film.
-    pub fn pixels_per_radian(&self) -> f32 {
-        0.5 * self.height / self.tan_y
+    /// How large a unit length looks on the film, in pixels: at distance `d` from
+    /// the eye (on the optical axis) for a perspective camera, anywhere for an
+    /// orthographic one.
+    pub fn pixels_per_unit(&self, d: f32) -> f32 {
+        if self.parallel {
+            0.5 * self.width / (self.tan_x * self.to_world.transform_vector3(Vec3::X).length())
+        } else {
+            0.5 * self.height / (self.tan_y * d)
+        }
+    }
+
+    /// Whether rays are parallel (an orthographic camera).
+    pub fn is_parallel(&self) -> bool {
+        self.parallel
     }
 
     /// Projects a world point to film coordinates in pixels; `None` behind the camera.
     pub fn project(&self, p: Vec3) -> Option<(f32, f32)> {
         let local = self.to_world.inverse().transform_point3(p);
+        let depth = if self.parallel { 1.0 } else { local.z };
         if local.z <= 0.0 {
             return None;
         }
-        let x = (1.0 - local.x / (local.z * self.tan_x)) * 0.5 * self.width;
-        let y = (1.0 - local.y / (local.z * self.tan_y)) * 0.5 * self.height;
+        let x = (1.0 - local.x / (depth * self.tan_x)) * 0.5 * self.width;
+        let y = (1.0 - local.y / (depth * self.tan_y)) * 0.5 * self.height;
         Some((x, y))
     }
 }
@@ -84,6 +119,7 @@ impl Camera {
 mod tests {
     use super::*;
     use crate::scene::FovAxis;
+    use crate::scene::Projection;
 
     fn sensor(fov: f32, axis: FovAxis, w: u32, h: u32) -> Sensor {
         // Mitsuba lookat from (0,0,5) to the origin, up +y.
@@ -99,6 +135,7 @@ mod tests {
         );
         Sensor {
             to_world,
+            projection: crate::scene::Projection::Perspective,
             fov,
             fov_axis: axis,
             width: w,
@@ -137,6 +174,30 @@ mod tests {
         let cam = Camera::new(&sensor(90.0, FovAxis::Y, 200, 100), 200, 100);
         let t = cam.ray(100.0, 0.0);
         assert!((t.dir - Vec3::new(0.0, 1.0, -1.0).normalize()).length() < 1e-6);
+    }
+
+    /// Mitsuba's orthographic camera: parallel rays along the view from the near
+    /// plane, the film spanning local x in [-1, 1] and y in [-1, 1] / aspect, scaled
+    /// by `to_world`; a unit length spans width / (2 scale) pixels at any distance.
+    #[test]
+    fn an_orthographic_camera_casts_parallel_rays_over_its_scaled_film() {
+        let mut s = sensor(45.0, FovAxis::X, 200, 100);
+        s.projection = Projection::Orthographic;
+        s.to_world *= Mat4::from_scale(Vec3::splat(3.0));
+        let cam = Camera::new(&s, 200, 100);
+        let centre = cam.ray(100.0, 50.0);
+        assert!((centre.dir - Vec3::new(0.0, 0.0, -1.0)).length() < 1e-6);
+        assert!((centre.origin - Vec3::new(0.0, 0.0, 5.0 - 3.0 * 0.01)).length() < 1e-5);
+        // Top-left corner: local (1, 0.5) (x is the image's left), scaled by 3; the
+        // camera looks down -z, so local +x is world -x.
+        let corner = cam.ray(0.0, 0.0);
+        assert!((corner.dir - centre.dir).length() < 1e-6);
+        let off = corner.origin - centre.origin;
+        assert!((off - Vec3::new(-3.0, 1.5, 0.0)).length() < 1e-5, "{off}");
+        assert!((cam.pixels_per_unit(1.0) - 200.0 / 6.0).abs() < 1e-3);
+        assert_eq!(cam.pixels_per_unit(1.0), cam.pixels_per_unit(50.0));
+        let (px, py) = cam.project(corner.at(4.0)).unwrap();
+        assert!(px.abs() < 1e-3 && py.abs() < 1e-3, "{px} {py}");
     }
 
     #[test]

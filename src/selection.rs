@@ -187,8 +187,11 @@ impl Default for SelectSettings {
 pub struct ViewScale {
     /// The eye.
     pub eye: Vec3,
-    /// Pixels per unit length at unit distance, on the optical axis.
+    /// Pixels per unit length at unit distance, on the optical axis; for parallel
+    /// rays, at any distance.
     pub pixels_per_radian: f32,
+    /// Whether the rays are parallel (an orthographic camera).
+    pub parallel: bool,
 }
 
 impl ViewScale {
@@ -196,7 +199,19 @@ impl ViewScale {
     pub fn of(camera: &Camera) -> Self {
         ViewScale {
             eye: camera.eye(),
-            pixels_per_radian: camera.pixels_per_radian(),
+            pixels_per_radian: camera.pixels_per_unit(1.0),
+            parallel: camera.is_parallel(),
+        }
+    }
+
+    /// Pixels that a length `edge` at distance `d` from the eye spans.
+    pub fn pixels(&self, edge: f32, d: f32) -> f32 {
+        if self.parallel {
+            edge * self.pixels_per_radian
+        } else if d > 0.0 {
+            edge * self.pixels_per_radian / d
+        } else {
+            f32::INFINITY
         }
     }
 }
@@ -561,11 +576,7 @@ pub fn judge(j: &Judge, p: u32, entry: &ListEntry, tris: &Subtense, points: &Fal
             .iter()
             .map(|v| (v.p - vs.eye).length())
             .fold(f32::INFINITY, f32::min);
-        c.element_pixels = if d > 0.0 {
-            edge * vs.pixels_per_radian / d
-        } else {
-            f32::INFINITY
-        };
+        c.element_pixels = vs.pixels(edge, d);
     }
     c.view = !settings.view_criterion || view.is_none() || c.element_pixels >= settings.view_threshold;
 

@@ -113,6 +113,7 @@ pub fn looking(origin: glam::Vec3, target: glam::Vec3, fov: f32, w: u32, h: u32)
     let left = up.cross(dir).normalize();
     let up = dir.cross(left);
     crate::scene::Sensor {
+        projection: crate::scene::Projection::Perspective,
         to_world: Mat4::from_cols(
             left.extend(0.0),
             up.extend(0.0),

@@ -48,6 +48,9 @@ pub struct Tracer<'a> {
     /// The angle a pixel spans seen from the eye (radians; 0: unknown): camera rays'
     /// footprints, over which mipmapped textures are read.
     pixel_angle: f32,
+    /// What a camera ray's footprint has at distance 0 (an orthographic camera's
+    /// pixel width; 0 for a perspective one).
+    pixel_width: f32,
 }
 
 impl<'a> Tracer<'a> {
@@ -74,6 +77,7 @@ impl<'a> Tracer<'a> {
             gather: None,
             total: None,
             pixel_angle: 0.0,
+            pixel_width: 0.0,
         }
     }
 
@@ -102,6 +106,7 @@ impl<'a> Tracer<'a> {
                 .any(|b| b.kind.glossy().is_some() || b.kind.is_rough_glass())
                 .then(|| selection.solution.total()),
             pixel_angle: 0.0,
+            pixel_width: 0.0,
         }
     }
 
@@ -110,9 +115,11 @@ impl<'a> Tracer<'a> {
         self.gather = Some(gather);
     }
 
-    /// Camera rays (depth 0) span `angle` radians a pixel: their hits read mipmapped
-    /// textures over that footprint.
-    pub fn set_pixel_angle(&mut self, angle: f32) {
+    /// A camera ray's pixel spans `width + angle * t` at distance `t` (`angle`
+    /// radians for a perspective camera, a fixed `width` for an orthographic one):
+    /// its hits read mipmapped textures over that footprint.
+    pub fn set_pixel_footprint(&mut self, width: f32, angle: f32) {
+        self.pixel_width = width;
         self.pixel_angle = angle;
     }
 
@@ -164,7 +171,7 @@ impl<'a> Tracer<'a> {
         }
         let mut sp = SurfacePoint::new(self.scene, ray, &hit);
         if depth == 0 {
-            sp = sp.with_footprint(hit.t * ray.dir.length() * self.pixel_angle);
+            sp = sp.with_footprint(self.pixel_width + hit.t * ray.dir.length() * self.pixel_angle);
         }
         let shape = &self.scene.shapes[hit.shape as usize];
         let mut l = Vec3::ZERO;

@@ -463,6 +463,18 @@ pub enum Filter {
     Lanczos,
 }
 
+/// How a sensor's film maps to rays.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Projection {
+    /// Mitsuba's `perspective` (and `thinlens`, its depth of field ignored): rays from
+    /// the eye through the film.
+    #[default]
+    Perspective,
+    /// Mitsuba's `orthographic`: parallel rays along local +z from the film, which
+    /// spans local x in [-1, 1] and y in [-1, 1] / aspect (`to_world` scales it).
+    Orthographic,
+}
+
 /// Which axis `fov` spans (Mitsuba's `fov_axis`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FovAxis {
@@ -482,7 +494,10 @@ pub enum FovAxis {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Sensor {
     /// Camera-to-world: local +z looks forward, +y is up, +x is the image's left.
+    /// An orthographic sensor's may scale: the film spans local x in [-1, 1].
     pub to_world: Mat4,
+    /// How the film maps to rays.
+    pub projection: Projection,
     /// Field of view in degrees along `fov_axis`.
     pub fov: f32,
     /// Which axis `fov` spans.

@@ -113,6 +113,7 @@ fn radiance_and_view_criteria_follow_their_thresholds() {
     let far = ViewScale {
         eye: v(0.0, 0.0, 100.0),
         pixels_per_radian: 1.0,
+        parallel: false,
     };
     let c = half(&st, Some(&far));
     assert!(!c.view && c.element_pixels < 0.01, "{c:?}");
@@ -124,6 +125,7 @@ fn radiance_and_view_criteria_follow_their_thresholds() {
     let near = ViewScale {
         eye: v(-1.5, 0.0, 2.0),
         pixels_per_radian: 500.0,
+        parallel: false,
     };
     assert!(half(&st, Some(&near)).view);
 }

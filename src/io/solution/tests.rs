@@ -255,6 +255,7 @@ fn fingerprint_is_stable_and_sees_what_matters() {
     same.shapes[1].mesh.normals = vec![Vec3::Z; 4];
     same.sensors.push(Sensor {
         to_world: glam::Mat4::IDENTITY,
+        projection: crate::scene::Projection::Perspective,
         fov: 45.0,
         fov_axis: crate::scene::FovAxis::X,
         width: 8,

@@ -7,7 +7,7 @@ use roxmltree::Node;
 use super::document::{tag, Loader, Src};
 use super::parse;
 use super::properties::{Child, Target, Val};
-use crate::scene::{Filter, FovAxis, Sensor};
+use crate::scene::{Filter, FovAxis, Projection, Sensor};
 use crate::Result;
 
 impl Loader {
@@ -16,8 +16,9 @@ impl Loader {
         let ty = self.attr_req(s, c, "type")?;
         self.register(s, c, Target::Other("sensor"))?;
         let obj = self.collect(s, c, format!("sensor '{ty}'"))?;
-        match ty.as_str() {
-            "perspective" => {}
+        let projection = match ty.as_str() {
+            "perspective" => Projection::Perspective,
+            "orthographic" => Projection::Orthographic,
             "thinlens" => {
                 obj.get("aperture_radius");
                 self.warn(
@@ -25,6 +26,7 @@ impl Loader {
                     c,
                     "sensor 'thinlens' rendered as 'perspective' (depth of field is ignored)",
                 );
+                Projection::Perspective
             }
             t => {
                 obj.mark_all();
@@ -33,15 +35,29 @@ impl Loader {
                     c,
                     format!("sensor '{t}' is not supported: treated as 'perspective'"),
                 );
+                Projection::Perspective
             }
-        }
+        };
         let to_world = obj.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
         let l = Mat3::from_mat4(to_world);
         let orthonormal = (l.transpose() * l - Mat3::IDENTITY)
             .to_cols_array()
             .iter()
             .all(|v| v.abs() < 1e-3);
-        if !orthonormal {
+        // An orthographic sensor's scale sets the film's extent; its axes must still
+        // be orthogonal, and its determinant not 0.
+        let sheared = {
+            let (x, y, z) = (l.x_axis, l.y_axis, l.z_axis);
+            let n = x.length() * y.length() * z.length();
+            !(n > 0.0) || (x.dot(y).abs() + x.dot(z).abs() + y.dot(z).abs()) > 1e-3 * n.cbrt().powi(2)
+        };
+        if projection == Projection::Orthographic && sheared {
+            return Err(s.err(
+                c,
+                "sensor 'orthographic': to_world must not shear or flatten the view",
+            ));
+        }
+        if !orthonormal && projection == Projection::Perspective {
             self.warn(
                 s,
                 c,
@@ -150,6 +166,7 @@ impl Loader {
         self.finish(&obj);
         self.scene.sensors.push(Sensor {
             to_world,
+            projection,
             fov,
             fov_axis,
             width,

@@ -812,6 +812,32 @@ fn a_films_rfilter_is_read() {
     assert_eq!(l.scene.sensors[0].filter, Some(crate::scene::Filter::Box));
 }
 
+/// An `orthographic` sensor is read as one, its `to_world` may scale (the film's
+/// extent), not shear.
+#[test]
+fn an_orthographic_sensor_keeps_its_scale() {
+    let sensor = |t: &str| {
+        format!(
+            r#"<scene version="3.0.0"><sensor type="orthographic">
+<transform name="to_world">{t}<lookat origin="0, 0, 5" target="0, 0, 0"/></transform></sensor></scene>"#
+        )
+    };
+    let l = load_raw(&sensor(r#"<scale x="2" y="2"/>"#), &[]).unwrap();
+    let s = &l.scene.sensors[0];
+    assert_eq!(s.projection, crate::scene::Projection::Orthographic);
+    assert!((s.to_world.x_axis.length() - 2.0).abs() < 1e-6);
+    assert!(
+        !l.warnings.iter().any(|w| w.contains("sensor")),
+        "{:?}",
+        l.warnings
+    );
+    let m = err_at(
+        &sensor(r#"<matrix value="1 0.5 0 0 0 1 0 0 0 0 1 0 0 0 0 1"/>"#),
+        1,
+    );
+    assert!(m.contains("shear"), "{m}");
+}
+
 #[test]
 fn default_sensor_is_a_50mm_lens() {
     let l = load_raw(
