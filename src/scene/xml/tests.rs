@@ -1614,6 +1614,37 @@ fn a_path_element_adds_a_folder_to_search() {
 
 // ------------------------------------------------------------- fixture
 
+/// The repository's spectral Cornell box loads with no warning, its light in the
+/// colour Mitsuba 3.9 gives those pairs and its green wall read from its `.spd` file.
+#[test]
+fn the_spectral_cornell_box_loads_in_mitsubas_colours() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box/cornell-box-spectral.xml");
+    let l = load(&path, &[]).unwrap();
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+    let r = radiances(&l);
+    assert!(
+        (r[0] - Vec3::new(20.710821, 10.854642, 2.771151))
+            .abs()
+            .max_element()
+            < 1e-3,
+        "{}",
+        r[0]
+    );
+    let wall = l.scene.shapes.iter().find(|s| s.name == "rightwall").unwrap();
+    let green = match &l.scene.bsdfs[wall.bsdf as usize].kind {
+        BsdfKind::Diffuse { reflectance } => *reflectance,
+        k => panic!("{k:?}"),
+    };
+    // Mitsuba 3.9's `spectrum_list_to_srgb` of green.spd's pairs.
+    assert!(
+        (green - Vec3::new(0.0837918, 0.403466, 0.115484))
+            .abs()
+            .max_element()
+            < 1e-5,
+        "{green}"
+    );
+}
+
 #[test]
 fn fixture_box_loads_completely() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/xml/box.xml");
