@@ -18,19 +18,38 @@ pub struct Camera {
     /// half extent in local units (1 and 1 / aspect).
     tan_x: f32,
     tan_y: f32,
+    /// The whole film's size in pixels, and where the image's top-left pixel lies
+    /// on it (a cropped film: [`Sensor::crop`]).
     width: f32,
     height: f32,
+    offset: (f32, f32),
     near: f32,
     far: f32,
 }
 
 impl Camera {
-    /// A camera for `sensor` with a film of `width x height` pixels (which may differ
-    /// from the sensor's own film; the field of view is re-derived for the new aspect).
+    /// A camera for `sensor` with an image of `width x height` pixels (which may differ
+    /// from the sensor's own; the field of view is re-derived for the new aspect). A
+    /// cropped film's image is its window, scaled with the image.
     pub fn new(sensor: &Sensor, width: u32, height: u32) -> Self {
         let mut s = sensor.clone();
-        s.width = width;
-        s.height = height;
+        let (sx, sy) = (
+            width as f32 / sensor.width as f32,
+            height as f32 / sensor.height as f32,
+        );
+        let (film, offset) = match sensor.crop {
+            Some(c) => (
+                (
+                    (c.film_width as f32 * sx).round().max(1.0),
+                    (c.film_height as f32 * sy).round().max(1.0),
+                ),
+                (c.x as f32 * sx, c.y as f32 * sy),
+            ),
+            None => ((width as f32, height as f32), (0.0, 0.0)),
+        };
+        s.width = film.0 as u32;
+        s.height = film.1 as u32;
+        let (width, height) = (s.width, s.height);
         let parallel = s.projection == Projection::Orthographic;
         let (tan_x, tan_y) = if parallel {
             (1.0, height as f32 / width as f32)
@@ -45,6 +64,7 @@ impl Camera {
             tan_y,
             width: width as f32,
             height: height as f32,
+            offset,
             near: s.near_clip,
             far: s.far_clip,
         }
@@ -54,6 +74,7 @@ impl Camera {
     /// of the image, `(width, height)` = bottom-right). Its direction has unit
     /// length; `tmin`/`tmax` are the near and far clip planes.
     pub fn ray(&self, x: f32, y: f32) -> Ray {
+        let (x, y) = (x + self.offset.0, y + self.offset.1);
         // Mitsuba's camera space: +z forward, +y up, +x towards the image's left.
         let cx = (1.0 - 2.0 * x / self.width) * self.tan_x;
         let cy = (1.0 - 2.0 * y / self.height) * self.tan_y;
@@ -111,7 +132,7 @@ impl Camera {
         }
         let x = (1.0 - local.x / (depth * self.tan_x)) * 0.5 * self.width;
         let y = (1.0 - local.y / (depth * self.tan_y)) * 0.5 * self.height;
-        Some((x, y))
+        Some((x - self.offset.0, y - self.offset.1))
     }
 }
 
@@ -144,6 +165,7 @@ mod tests {
             far_clip: 1e4,
             spp: None,
             filter: None,
+            crop: None,
         }
     }
 
@@ -198,6 +220,33 @@ mod tests {
         assert_eq!(cam.pixels_per_unit(1.0), cam.pixels_per_unit(50.0));
         let (px, py) = cam.project(corner.at(4.0)).unwrap();
         assert!(px.abs() < 1e-3 && py.abs() < 1e-3, "{px} {py}");
+    }
+
+    /// A cropped film's image is its window: the cropped camera's pixel (x, y) is the
+    /// whole film's (x + offset, y + offset), at the image's size or scaled with it.
+    #[test]
+    fn a_cropped_film_renders_its_window() {
+        let full = sensor(50.0, FovAxis::X, 64, 48);
+        let whole = Camera::new(&full, 64, 48);
+        let mut cropped = full.clone();
+        (cropped.width, cropped.height) = (20, 10);
+        cropped.crop = Some(crate::scene::Crop {
+            film_width: 64,
+            film_height: 48,
+            x: 30,
+            y: 12,
+        });
+        let cam = Camera::new(&cropped, 20, 10);
+        for (x, y) in [(0.5, 0.5), (19.5, 9.5), (7.25, 3.0)] {
+            let (a, b) = (cam.ray(x, y), whole.ray(x + 30.0, y + 12.0));
+            assert!((a.dir - b.dir).length() < 1e-6 && (a.origin - b.origin).length() < 1e-6);
+        }
+        // Twice the size: the window of a film twice as large.
+        let twice = Camera::new(&cropped, 40, 20);
+        let big = Camera::new(&full, 128, 96);
+        let (a, b) = (twice.ray(3.0, 5.0), big.ray(63.0, 29.0));
+        assert!((a.dir - b.dir).length() < 1e-6);
+        assert!((cam.pixels_per_unit(2.0) - whole.pixels_per_unit(2.0)).abs() < 1e-4);
     }
 
     #[test]

@@ -128,6 +128,7 @@ pub fn looking(origin: glam::Vec3, target: glam::Vec3, fov: f32, w: u32, h: u32)
         far_clip: 1e4,
         spp: None,
         filter: None,
+        crop: None,
     }
 }
 

@@ -502,7 +502,7 @@ pub struct Sensor {
     pub fov: f32,
     /// Which axis `fov` spans.
     pub fov_axis: FovAxis,
-    /// Film width in pixels.
+    /// Image width in pixels (a cropped film's window: [`Sensor::crop`]).
     pub width: u32,
     /// Film height in pixels.
     pub height: u32,
@@ -514,6 +514,20 @@ pub struct Sensor {
     pub spp: Option<u32>,
     /// The film's `rfilter`, if it names one (Mitsuba's default is its Gaussian).
     pub filter: Option<Filter>,
+    /// Where the image lies on the whole film, if the film is cropped.
+    pub crop: Option<Crop>,
+}
+
+/// A film's crop window (Mitsuba's `crop_offset_x`, `crop_offset_y`, `crop_width`,
+/// `crop_height`): the image is the window's pixels of the whole film.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Crop {
+    /// The whole film's size in pixels.
+    pub film_width: u32,
+    pub film_height: u32,
+    /// The window's top-left pixel on the film.
+    pub x: u32,
+    pub y: u32,
 }
 
 impl Sensor {

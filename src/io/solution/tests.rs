@@ -264,6 +264,7 @@ fn fingerprint_is_stable_and_sees_what_matters() {
         far_clip: 100.0,
         spp: None,
         filter: None,
+        crop: None,
     });
     assert_eq!(scene_fingerprint(&same), fp);
 

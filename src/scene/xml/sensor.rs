@@ -7,7 +7,7 @@ use roxmltree::Node;
 use super::document::{tag, Loader, Src};
 use super::parse;
 use super::properties::{Child, Target, Val};
-use crate::scene::{Filter, FovAxis, Projection, Sensor};
+use crate::scene::{Crop, Filter, FovAxis, Projection, Sensor};
 use crate::Result;
 
 impl Loader {
@@ -135,7 +135,7 @@ impl Loader {
             }
         }
 
-        let (mut width, mut height, mut spp, mut filter) = (768, 576, None, None);
+        let (mut width, mut height, mut spp, mut filter, mut crop) = (768, 576, None, None, None);
         let (mut film_seen, mut sampler_seen) = (false, false);
         for ch in &obj.children {
             match ch {
@@ -144,7 +144,7 @@ impl Loader {
                         return Err(s.err(*n, "a sensor takes one <film>"));
                     }
                     film_seen = true;
-                    (width, height, filter) = self.film(s, *n)?;
+                    (width, height, filter, crop) = self.film(s, *n)?;
                 }
                 Child::Elem(n) if tag(*n) == "sampler" => {
                     if sampler_seen {
@@ -175,12 +175,13 @@ impl Loader {
             far_clip,
             spp,
             filter,
+            crop,
         });
         Ok(())
     }
 
     /// The film's size and its `rfilter`; its other settings are Mitsuba's business.
-    fn film(&mut self, s: Src, c: Node) -> Result<(u32, u32, Option<Filter>)> {
+    fn film(&mut self, s: Src, c: Node) -> Result<(u32, u32, Option<Filter>, Option<Crop>)> {
         self.check_attrs(s, c, &["type", "id", "name"]);
         let ty = self.attr_req(s, c, "type")?;
         self.register(s, c, Target::Other("film"))?;
@@ -197,6 +198,34 @@ impl Loader {
         };
         let w = size("width", 768)?;
         let h = size("height", 576)?;
+        // A crop window (Mitsuba's: the offsets 0 and the size the film's by default,
+        // the window within the film).
+        let offset = |name: &str, film: u32| -> Result<u32> {
+            let v = obj.int(name)?.unwrap_or(0);
+            if !(0..i64::from(film)).contains(&v) {
+                return Err(obj.err_param(name, format!("= {v} is outside the film's [0, {film})")));
+            }
+            Ok(v as u32)
+        };
+        let (x, y) = (offset("crop_offset_x", w)?, offset("crop_offset_y", h)?);
+        let (cw, ch) = (
+            size("crop_width", i64::from(w - x))?,
+            size("crop_height", i64::from(h - y))?,
+        );
+        if x + cw > w || y + ch > h {
+            return Err(s.err(
+                c,
+                format!("film '{ty}': the crop window {cw} x {ch} at ({x}, {y}) leaves the {w} x {h} film"),
+            ));
+        }
+        let cropped = (x, y, cw, ch) != (0, 0, w, h);
+        let crop = cropped.then_some(Crop {
+            film_width: w,
+            film_height: h,
+            x,
+            y,
+        });
+        let (w, h) = (cw, ch);
         let mut filter = None;
         for ch in &obj.children {
             if let Child::Elem(n) = ch {
@@ -206,7 +235,7 @@ impl Loader {
             }
         }
         obj.mark_all();
-        Ok((w, h, filter))
+        Ok((w, h, filter, crop))
     }
 
     /// A film's reconstruction filter: Mitsuba's `box`, `tent`, `gaussian`,

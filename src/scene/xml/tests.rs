@@ -838,6 +838,41 @@ fn an_orthographic_sensor_keeps_its_scale() {
     assert!(m.contains("shear"), "{m}");
 }
 
+/// A film's crop window makes the image the window's size, placed on the film; a
+/// window that leaves the film is an error at the film.
+#[test]
+fn a_films_crop_window_is_read() {
+    let film = |crop: &str| {
+        format!(
+            r#"<scene version="3.0.0"><sensor type="perspective">
+<film type="hdrfilm"><integer name="width" value="64"/><integer name="height" value="48"/>{crop}</film></sensor></scene>"#
+        )
+    };
+    let l = load_raw(
+        &film(r#"<integer name="crop_offset_x" value="8"/><integer name="crop_offset_y" value="4"/><integer name="crop_width" value="32"/><integer name="crop_height" value="20"/>"#),
+        &[],
+    )
+    .unwrap();
+    let s = &l.scene.sensors[0];
+    assert_eq!((s.width, s.height), (32, 20));
+    assert_eq!(
+        s.crop,
+        Some(crate::scene::Crop {
+            film_width: 64,
+            film_height: 48,
+            x: 8,
+            y: 4
+        })
+    );
+    let l = load_raw(&film(""), &[]).unwrap();
+    assert_eq!((l.scene.sensors[0].width, l.scene.sensors[0].crop), (64, None));
+    let m = err_at(
+        &film(r#"<integer name="crop_offset_x" value="40"/><integer name="crop_width" value="32"/>"#),
+        2,
+    );
+    assert!(m.contains("leaves the 64 x 48 film"), "{m}");
+}
+
 #[test]
 fn default_sensor_is_a_50mm_lens() {
     let l = load_raw(
