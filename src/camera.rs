@@ -6,6 +6,28 @@ use glam::{Mat4, Vec3};
 use crate::accel::Ray;
 use crate::scene::{Projection, Sensor};
 
+/// How large lengths look on the film: pixels per unit length at unit distance
+/// from the eye (a perspective camera) or at any distance (parallel rays).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PixelScale {
+    pub per_unit: f32,
+    pub parallel: bool,
+}
+
+impl PixelScale {
+    /// Pixels that a length `len` at distance `d` from the eye spans (unbounded at
+    /// the eye of a perspective camera).
+    pub fn pixels(&self, len: f32, d: f32) -> f32 {
+        if self.parallel {
+            len * self.per_unit
+        } else if d > 0.0 {
+            len * self.per_unit / d
+        } else {
+            f32::INFINITY
+        }
+    }
+}
+
 /// Generates primary rays through film positions.
 #[derive(Debug, Clone)]
 pub struct Camera {
@@ -13,6 +35,11 @@ pub struct Camera {
     /// Orthographic: the film's local extent is [-1, 1] x [-1, 1] / aspect, rays
     /// parallel along local +z.
     parallel: bool,
+    /// The view direction (local +z in the world) and its length there (how
+    /// `to_world` scales the clip distances); the film's scale along local x.
+    axis: Vec3,
+    axis_len: f32,
+    x_len: f32,
     origin: Vec3,
     /// Perspective: tangents of the half field of view; orthographic: the film's
     /// half extent in local units (1 and 1 / aspect).
@@ -56,9 +83,13 @@ impl Camera {
         } else {
             s.tan_half_fov()
         };
+        let z = s.to_world.transform_vector3(Vec3::Z);
         Camera {
             to_world: s.to_world,
             parallel,
+            axis: z.normalize_or(Vec3::Z),
+            axis_len: z.length(),
+            x_len: s.to_world.transform_vector3(Vec3::X).length(),
             origin: s.to_world.transform_point3(Vec3::ZERO),
             tan_x,
             tan_y,
@@ -81,13 +112,11 @@ impl Camera {
         if self.parallel {
             // From the near plane, along local +z; the clip planes are local
             // distances, scaled with the rest.
-            let z = self.to_world.transform_vector3(Vec3::Z);
-            let len = z.length();
             return Ray {
                 origin: self.to_world.transform_point3(Vec3::new(cx, cy, self.near)),
-                dir: z / len,
+                dir: self.axis,
                 tmin: 0.0,
-                tmax: (self.far - self.near) * len,
+                tmax: (self.far - self.near) * self.axis_len,
             };
         }
         let local = Vec3::new(cx, cy, 1.0);
@@ -107,20 +136,21 @@ impl Camera {
         self.origin
     }
 
-    /// How large a unit length looks on the film, in pixels: at distance `d` from
-    /// the eye (on the optical axis) for a perspective camera, anywhere for an
-    /// orthographic one.
-    pub fn pixels_per_unit(&self, d: f32) -> f32 {
-        if self.parallel {
-            0.5 * self.width / (self.tan_x * self.to_world.transform_vector3(Vec3::X).length())
-        } else {
-            0.5 * self.height / (self.tan_y * d)
+    /// How large lengths look on the film (on the optical axis).
+    pub fn pixel_scale(&self) -> PixelScale {
+        PixelScale {
+            per_unit: if self.parallel {
+                0.5 * self.width / (self.tan_x * self.x_len)
+            } else {
+                0.5 * self.height / self.tan_y
+            },
+            parallel: self.parallel,
         }
     }
 
-    /// Whether rays are parallel (an orthographic camera).
-    pub fn is_parallel(&self) -> bool {
-        self.parallel
+    /// Pixels a unit length spans at distance `d` from the eye.
+    pub fn pixels_per_unit(&self, d: f32) -> f32 {
+        self.pixel_scale().pixels(1.0, d)
     }
 
     /// Projects a world point to film coordinates in pixels; `None` behind the camera.

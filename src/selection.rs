@@ -24,7 +24,7 @@ use std::collections::BTreeMap;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::camera::Camera;
+use crate::camera::{Camera, PixelScale};
 use crate::emitters::light_power;
 use crate::emitters::{AreaEmitter, SampledLight};
 use crate::geometry::Subtense;
@@ -182,16 +182,13 @@ impl Default for SelectSettings {
     }
 }
 
-/// Where the view criterion looks from: the camera's eye and its pixels per radian.
+/// Where the view criterion looks from: the camera's eye and how large lengths look
+/// on its film.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ViewScale {
     /// The eye.
     pub eye: Vec3,
-    /// Pixels per unit length at unit distance, on the optical axis; for parallel
-    /// rays, at any distance.
-    pub pixels_per_radian: f32,
-    /// Whether the rays are parallel (an orthographic camera).
-    pub parallel: bool,
+    pub scale: PixelScale,
 }
 
 impl ViewScale {
@@ -199,19 +196,7 @@ impl ViewScale {
     pub fn of(camera: &Camera) -> Self {
         ViewScale {
             eye: camera.eye(),
-            pixels_per_radian: camera.pixels_per_unit(1.0),
-            parallel: camera.is_parallel(),
-        }
-    }
-
-    /// Pixels that a length `edge` at distance `d` from the eye spans.
-    pub fn pixels(&self, edge: f32, d: f32) -> f32 {
-        if self.parallel {
-            edge * self.pixels_per_radian
-        } else if d > 0.0 {
-            edge * self.pixels_per_radian / d
-        } else {
-            f32::INFINITY
+            scale: camera.pixel_scale(),
         }
     }
 }
@@ -576,7 +561,7 @@ pub fn judge(j: &Judge, p: u32, entry: &ListEntry, tris: &Subtense, points: &Fal
             .iter()
             .map(|v| (v.p - vs.eye).length())
             .fold(f32::INFINITY, f32::min);
-        c.element_pixels = vs.pixels(edge, d);
+        c.element_pixels = vs.scale.pixels(edge, d);
     }
     c.view = !settings.view_criterion || view.is_none() || c.element_pixels >= settings.view_threshold;
 

@@ -150,11 +150,7 @@ pub fn render(
     };
     let sensor = scene.sensor(settings.view)?;
     let camera = Camera::new(sensor, settings.width, settings.height);
-    if camera.is_parallel() {
-        tracer.set_pixel_footprint(1.0 / camera.pixels_per_unit(1.0), 0.0);
-    } else {
-        tracer.set_pixel_footprint(0.0, 1.0 / camera.pixels_per_unit(1.0));
-    }
+    tracer.set_pixel_scale(camera.pixel_scale());
     let start = Instant::now();
     let mut first = Counters::with_sources(tracer.source_count());
     if let (true, Some(sel)) = (settings.gather > 0, selection) {

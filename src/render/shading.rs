@@ -9,6 +9,7 @@ use super::sib::{self, SibQuery};
 use super::Settings;
 use crate::accel::{Accel, Ray};
 use crate::bsdf::microfacet::Frame;
+use crate::camera::PixelScale;
 use crate::emitters::{group_point, SampledLight};
 use crate::interaction::{pane_transmittance, reflect, transmittance, SurfacePoint};
 use crate::mesh::{Interp, RadiosityMesh};
@@ -45,12 +46,9 @@ pub struct Tracer<'a> {
     /// Per mesh vertex, the solution's total radiosity (what rays drawn from a glossy
     /// lobe or rough glass read where they land), with a solution.
     total: Option<Vec<Rgb>>,
-    /// The angle a pixel spans seen from the eye (radians; 0: unknown): camera rays'
-    /// footprints, over which mipmapped textures are read.
-    pixel_angle: f32,
-    /// What a camera ray's footprint has at distance 0 (an orthographic camera's
-    /// pixel width; 0 for a perspective one).
-    pixel_width: f32,
+    /// How large lengths look on the camera's film (None: unknown): camera rays'
+    /// footprints, over which mipmapped textures are read, are a pixel's width there.
+    pixel_scale: Option<PixelScale>,
 }
 
 impl<'a> Tracer<'a> {
@@ -76,8 +74,7 @@ impl<'a> Tracer<'a> {
             diffuse: Diffuse::Direct(picks),
             gather: None,
             total: None,
-            pixel_angle: 0.0,
-            pixel_width: 0.0,
+            pixel_scale: None,
         }
     }
 
@@ -105,8 +102,7 @@ impl<'a> Tracer<'a> {
                 .iter()
                 .any(|b| b.kind.glossy().is_some() || b.kind.is_rough_glass())
                 .then(|| selection.solution.total()),
-            pixel_angle: 0.0,
-            pixel_width: 0.0,
+            pixel_scale: None,
         }
     }
 
@@ -115,12 +111,10 @@ impl<'a> Tracer<'a> {
         self.gather = Some(gather);
     }
 
-    /// A camera ray's pixel spans `width + angle * t` at distance `t` (`angle`
-    /// radians for a perspective camera, a fixed `width` for an orthographic one):
-    /// its hits read mipmapped textures over that footprint.
-    pub fn set_pixel_footprint(&mut self, width: f32, angle: f32) {
-        self.pixel_width = width;
-        self.pixel_angle = angle;
+    /// Camera rays (depth 0) read mipmapped textures at their hits over the width a
+    /// pixel spans there.
+    pub fn set_pixel_scale(&mut self, scale: PixelScale) {
+        self.pixel_scale = Some(scale);
     }
 
     /// Number of ray-traced sources (the length of [`Counters::sources`]).
@@ -171,7 +165,9 @@ impl<'a> Tracer<'a> {
         }
         let mut sp = SurfacePoint::new(self.scene, ray, &hit);
         if depth == 0 {
-            sp = sp.with_footprint(self.pixel_width + hit.t * ray.dir.length() * self.pixel_angle);
+            if let Some(scale) = self.pixel_scale {
+                sp = sp.with_footprint(1.0 / scale.pixels(1.0, hit.t * ray.dir.length()));
+            }
         }
         let shape = &self.scene.shapes[hit.shape as usize];
         let mut l = Vec3::ZERO;

@@ -112,8 +112,10 @@ fn radiance_and_view_criteria_follow_their_thresholds() {
     // look 0.001 pixels large: left to the mesh, unless the criterion is off.
     let far = ViewScale {
         eye: v(0.0, 0.0, 100.0),
-        pixels_per_radian: 1.0,
-        parallel: false,
+        scale: PixelScale {
+            per_unit: 1.0,
+            parallel: false,
+        },
     };
     let c = half(&st, Some(&far));
     assert!(!c.view && c.element_pixels < 0.01, "{c:?}");
@@ -124,8 +126,10 @@ fn radiance_and_view_criteria_follow_their_thresholds() {
     assert!(half(&off, Some(&far)).view);
     let near = ViewScale {
         eye: v(-1.5, 0.0, 2.0),
-        pixels_per_radian: 500.0,
-        parallel: false,
+        scale: PixelScale {
+            per_unit: 500.0,
+            parallel: false,
+        },
     };
     assert!(half(&st, Some(&near)).view);
 }

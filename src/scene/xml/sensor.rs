@@ -40,24 +40,23 @@ impl Loader {
         };
         let to_world = obj.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
         let l = Mat3::from_mat4(to_world);
-        let orthonormal = (l.transpose() * l - Mat3::IDENTITY)
-            .to_cols_array()
-            .iter()
-            .all(|v| v.abs() < 1e-3);
         // An orthographic sensor's scale sets the film's extent; its axes must still
-        // be orthogonal, and its determinant not 0.
-        let sheared = {
-            let (x, y, z) = (l.x_axis, l.y_axis, l.z_axis);
-            let n = x.length() * y.length() * z.length();
-            !(n > 0.0) || (x.dot(y).abs() + x.dot(z).abs() + y.dot(z).abs()) > 1e-3 * n.cbrt().powi(2)
-        };
-        if projection == Projection::Orthographic && sheared {
+        // be orthogonal (and none of length 0). A perspective one's should not scale.
+        let axes = [l.x_axis, l.y_axis, l.z_axis].map(|a| a.normalize_or_zero());
+        let orthogonal = axes.iter().all(|a| *a != glam::Vec3::ZERO)
+            && [(0, 1), (0, 2), (1, 2)]
+                .iter()
+                .all(|&(i, j)| axes[i].dot(axes[j]).abs() < 1e-3);
+        let unit = [l.x_axis, l.y_axis, l.z_axis]
+            .iter()
+            .all(|a| (a.length() - 1.0).abs() < 1e-3);
+        if projection == Projection::Orthographic && !orthogonal {
             return Err(s.err(
                 c,
                 "sensor 'orthographic': to_world must not shear or flatten the view",
             ));
         }
-        if !orthonormal && projection == Projection::Perspective {
+        if !(orthogonal && unit) && projection == Projection::Perspective {
             self.warn(
                 s,
                 c,
