@@ -67,6 +67,16 @@ use shot::{sky_cells, Found, Levels, Receiver, ShootPoint, Touching, FIRST_LIGHT
 /// shot's): Cornell box and paper room 3 at most, conference room 15-40; so 8 keeps
 /// every shot of the first two and none of the third (conference `good`: solve
 /// 11.6 s -> 2.5 s, FLIP 0.0331 -> 0.0340). No budget (`--max-photons 0`), no rule.
+///
+/// However much of the light the lights' shots leave: the classroom (229 k vertices,
+/// 64 % left after its three spots) shot 11 dear patches for 6.8 s of its 15 s solve
+/// while photons carried it for FLIP within seed noise (0.0809 / 0.0815 -> 0.0816 /
+/// 0.0810), and the Cornell box at `--mesh-size 0.025` (101 k vertices, 48 % left)
+/// 0.0245 / 0.0250 -> 0.0247 / 0.0250 in 4.2 -> 2.4 s. (Until 2026-11-27 the photons
+/// took over only once a third was left: with the gather reading them they had lit
+/// that box's ceiling 30 % too bright, FLIP 0.119, a bias since gone.) Without the
+/// gather (`draft`), which reads the solution at the eye, that box is a little worse
+/// (0.0359 -> 0.0386, 1.9 -> 1.75 s).
 const SHOT_RAY_WORTH: f64 = 8.0;
 
 /// The photon budget that [`SHOT_RAY_WORTH`] weighs a patch shot against is
@@ -80,15 +90,6 @@ const SHOT_YARDSTICK_PHOTONS: u64 = 1_000_000;
 const MIN_LIGHT_PHOTONS: f64 = 1.0 / 16.0;
 /// See [`MIN_LIGHT_PHOTONS`].
 const MAX_LIGHT_PHOTONS: f64 = 4.0;
-
-/// The photons take over from dear patch shots ([`SHOT_RAY_WORTH`]) only where they
-/// are left at most this share of the reference power: their deposits average over an
-/// element and, with the final gather reading them, light the walls and ceiling round
-/// an area light too brightly where they carry most of the light (the Cornell box at
-/// `--mesh-size 0.025`, 101 k vertices, every patch shot dear, 48 % left after the
-/// light's shot: photons alone gave FLIP 0.119, the ceiling over 30 % bright). The
-/// conference room is left 27 % after its lights' shots and shoots no patch.
-const PHOTON_SHARE: f64 = 1.0 / 3.0;
 
 /// What shot light: a light source of the scene or a radiant patch of the mesh.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
@@ -417,7 +418,6 @@ fn solve_inner(
         let rays_before = rays_per_receiver.unwrap_or(settings.shoot_samples as f64) * receiving as f64;
         let dear = photon_rays > 0.0
             && !reuses
-            && s.stats.residual <= PHOTON_SHARE
             && best_power * photon_rays * SHOT_RAY_WORTH < total * rays_before;
         if !(s.stats.residual > settings.tolerance as f64)
             || s.stats.patch_shots >= settings.max_shots as u64
