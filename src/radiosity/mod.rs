@@ -416,9 +416,8 @@ fn solve_inner(
         // would: where it would cost far more, the photons take the rest.
         let reuses = s.kept.get(best).is_some();
         let rays_before = rays_per_receiver.unwrap_or(settings.shoot_samples as f64) * receiving as f64;
-        let dear = photon_rays > 0.0
-            && !reuses
-            && best_power * photon_rays * SHOT_RAY_WORTH < total * rays_before;
+        let dear =
+            photon_rays > 0.0 && !reuses && best_power * photon_rays * SHOT_RAY_WORTH < total * rays_before;
         if !(s.stats.residual > settings.tolerance as f64)
             || s.stats.patch_shots >= settings.max_shots as u64
             || weak
