@@ -278,6 +278,12 @@ fn bad_input_gives_one_clear_error_and_exit_code_2() {
     );
     expect_error(&["render", &s(&scene), "-o", &out, "--spp", "0"], "--spp");
     expect_error(&["render", &s(&scene), "-o", &out, "-D", "novalue"], "NAME=VALUE");
+    // A parameter the scene does not declare (as Mitsuba 3, which refuses it), with
+    // the ones it does.
+    expect_error(
+        &["render", &s(&scene), "-o", &out, "-D", "width=64"],
+        "-D width: neither declared by a <default> nor used in the scene (it declares: res)",
+    );
     let bad = d.path().join("bad.xml");
     std::fs::write(
         &bad,

@@ -46,7 +46,8 @@ pub enum Command {
 pub struct SceneArgs {
     /// The scene file (Mitsuba 3 XML).
     pub scene: PathBuf,
-    /// Set a scene parameter declared with <default name=...> (repeatable).
+    /// Set a scene parameter declared with <default name=...> (repeatable; a name the
+    /// scene does not declare is an error, as in Mitsuba 3).
     #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
     pub defines: Vec<(String, String)>,
 }

@@ -91,6 +91,9 @@ pub(super) struct Loader {
     main_dir: PathBuf,
     pub(super) params: HashMap<String, String>,
     pub(super) declared: HashSet<String>,
+    /// The parameters substituted somewhere (a `-D` neither declared nor used is an
+    /// error, as Mitsuba's "unused parameters").
+    pub(super) used: std::cell::RefCell<HashSet<String>>,
     pub(super) warnings: Vec<String>,
     pub(super) scene: Scene,
     pub(super) ids: HashMap<String, (Target, String)>,
@@ -132,6 +135,7 @@ impl Loader {
             main_dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
             params: HashMap::new(),
             declared: HashSet::new(),
+            used: Default::default(),
             warnings: Vec::new(),
             scene: Scene {
                 path: path.to_path_buf(),
@@ -166,13 +170,18 @@ impl Loader {
         let Some(raw) = n.attribute(name) else {
             return Ok(None);
         };
-        parse::substitute(raw, &self.params).map(Some).map_err(|p| {
-            s.err_attr(
-                n,
-                name,
-                format!("undefined parameter '${p}' (no <default name=\"{p}\"> and no -D {p}=...)"),
-            )
-        })
+        let mut used = |name: &str| {
+            self.used.borrow_mut().insert(name.to_string());
+        };
+        parse::substitute(raw, &self.params, &mut used)
+            .map(Some)
+            .map_err(|p| {
+                s.err_attr(
+                    n,
+                    name,
+                    format!("undefined parameter '${p}' (no <default name=\"{p}\"> and no -D {p}=...)"),
+                )
+            })
     }
 
     pub(super) fn attr_req(&self, s: Src, n: Node, name: &str) -> Result<String> {

@@ -46,8 +46,10 @@ pub struct Loaded {
 
 /// Loads a Mitsuba 3 scene file; `defines` set `$name` parameters (`-D name=value`).
 ///
-/// Defines override the scene's `<default>`s; a define the scene never declares is a
-/// warning (Mitsuba would refuse it).
+/// Defines override the scene's `<default>`s; a define the scene neither declares nor
+/// uses is an error naming the ones it declares, as Mitsuba 3 refuses it ("Found
+/// unused parameters"): a misspelt size would otherwise render the scene's own size,
+/// perhaps for minutes.
 pub fn load(path: &Path, defines: &[(String, String)]) -> Result<Loaded> {
     load_with(path, None, defines)
 }
@@ -72,14 +74,24 @@ fn load_with(path: &Path, text: Option<&str>, defines: &[(String, String)]) -> R
         Some(text) => l.load_text(path, text, true)?,
         None => l.load_file(path, true)?,
     }
-    for (k, _) in defines {
-        if !l.declared.contains(k) {
-            l.warnings.push(format!(
-                "{}: parameter '{k}' given with -D is not declared by a <default> in the \
-                 scene (Mitsuba would refuse it)",
-                path.display()
-            ));
-        }
+    let unused: Vec<&str> = defines
+        .iter()
+        .map(|(k, _)| k.as_str())
+        .filter(|k| !l.declared.contains(*k) && !l.used.borrow().contains(*k))
+        .collect();
+    if !unused.is_empty() {
+        let mut declared: Vec<&str> = l.declared.iter().map(String::as_str).collect();
+        declared.sort_unstable();
+        let declared = if declared.is_empty() {
+            "none".to_string()
+        } else {
+            declared.join(", ")
+        };
+        return Err(Error::Usage(format!(
+            "{}: -D {}: neither declared by a <default> nor used in the scene (it declares: {declared})",
+            path.display(),
+            unused.join(", -D ")
+        )));
     }
     Ok(Loaded {
         scene: l.scene,

@@ -49,9 +49,14 @@ pub fn snake_case(name: &str) -> String {
     out
 }
 
-/// Replaces every `$name` in `s`. As Mitsuba does, the longest declared name that
-/// follows the `$` wins. Err: the name after an unresolved `$`.
-pub fn substitute(s: &str, params: &HashMap<String, String>) -> Result<String, String> {
+/// Replaces every `$name` in `s`, telling `used` each name replaced. As Mitsuba
+/// does, the longest declared name that follows the `$` wins. Err: the name after an
+/// unresolved `$`.
+pub fn substitute(
+    s: &str,
+    params: &HashMap<String, String>,
+    used: &mut dyn FnMut(&str),
+) -> Result<String, String> {
     if !s.contains('$') {
         return Ok(s.to_string());
     }
@@ -66,6 +71,7 @@ pub fn substitute(s: &str, params: &HashMap<String, String>) -> Result<String, S
             .max_by_key(|(name, _)| name.len());
         match best {
             Some((name, value)) => {
+                used(name);
                 out.push_str(value);
                 rest = &after[name.len()..];
             }
@@ -297,11 +303,11 @@ mod tests {
     #[test]
     fn substitution_prefers_longest_name() {
         let p = params(&[("x", "1"), ("xy", "2")]);
-        assert_eq!(substitute("$x_", &p).unwrap(), "1_");
-        assert_eq!(substitute("$xy $x", &p).unwrap(), "2 1");
-        assert_eq!(substitute("a$x,b", &p).unwrap(), "a1,b");
-        assert_eq!(substitute("no dollars", &p).unwrap(), "no dollars");
-        assert_eq!(substitute("$spp", &p), Err("spp".into()));
+        assert_eq!(substitute("$x_", &p, &mut |_| {}).unwrap(), "1_");
+        assert_eq!(substitute("$xy $x", &p, &mut |_| {}).unwrap(), "2 1");
+        assert_eq!(substitute("a$x,b", &p, &mut |_| {}).unwrap(), "a1,b");
+        assert_eq!(substitute("no dollars", &p, &mut |_| {}).unwrap(), "no dollars");
+        assert_eq!(substitute("$spp", &p, &mut |_| {}), Err("spp".into()));
     }
 
     #[test]

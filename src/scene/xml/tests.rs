@@ -189,15 +189,19 @@ fn parameters_take_defaults() {
 }
 
 #[test]
-fn defines_override_defaults_and_unknown_defines_warn() {
-    let l = load_raw(PARAM_SCENE, &[("spp", "64"), ("colour", "red")]).unwrap();
+fn defines_override_defaults_and_unknown_defines_are_errors() {
+    let l = load_raw(PARAM_SCENE, &[("spp", "64")]).unwrap();
     let s = &l.scene.sensors[0];
     assert_eq!((s.spp, s.width), (Some(64), 256));
-    assert!(l
-        .warnings
-        .iter()
-        .any(|w| w.contains("scene.xml") && w.contains("'colour'")));
-    assert!(!l.warnings.iter().any(|w| w.contains("'spp'")));
+    assert!(!l.warnings.iter().any(|w| w.contains("spp")), "{:?}", l.warnings);
+    // A define the scene neither declares nor uses: Mitsuba 3's "unused parameters".
+    let e = load_raw(PARAM_SCENE, &[("spp", "64"), ("colour", "red"), ("hue", "1")])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("scene.xml") && e.contains("-D colour, -D hue") && !e.contains("-D spp"),
+        "{e}"
+    );
 }
 
 #[test]
