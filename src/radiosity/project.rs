@@ -31,8 +31,28 @@ use crate::mesh::{point_in_polygon, RadiosityMesh};
 use crate::sampling::{derive, stratum, Stream};
 use crate::scene::{mean, Rgb, Scene};
 
-/// Stratified points on a piece whose vertices disagree.
+/// Stratified points on a mixed piece as large as half an element of the mesh size
+/// (a square of its side cut along a diagonal), at most: see [`points_on`].
 pub const POINTS: u32 = 16;
+
+/// Stratified points on a mixed piece of `area` in a mesh of `mesh_size`: [`POINTS`]
+/// times its area over half an element's (a square of the mesh size), rounded up to a
+/// power of two, at least one, at most [`POINTS`]. The power a piece's points can
+/// misplace is at most its own, so a small piece needs fewer: the classroom's chairs,
+/// cut into pieces far smaller than its 0.29 m elements, drew 3.9 M rays of the three
+/// spots' shots, 1.1 s of their 1.4 s; with fewer points the shots take 0.5 s less at
+/// the same FLIP against Mitsuba (0.0816 / 0.0810 -> 0.0805 / 0.0809, two seeds).
+fn points_on(area: f32, mesh_size: f32) -> u32 {
+    let half = 0.5 * mesh_size * mesh_size;
+    if !(half > 0.0) || !half.is_finite() {
+        return POINTS;
+    }
+    let n = (POINTS as f32 * area / half).ceil();
+    if !(n >= 1.0) {
+        return 1;
+    }
+    (n.min(POINTS as f32) as u32).next_power_of_two().min(POINTS)
+}
 
 /// A vertex value at most this fraction of the brightest of its piece makes the
 /// piece mixed.
@@ -153,9 +173,10 @@ pub fn project(
         if !mixed {
             continue;
         }
-        let a = area / POINTS as f32;
-        for j in 0..POINTS {
-            let x = point_in_polygon(&c, stratum(seed, (i as u32) << 7, j, POINTS));
+        let points = points_on(area, mesh.mesh_size);
+        let a = area / points as f32;
+        for j in 0..points {
+            let x = point_in_polygon(&c, stratum(seed, (i as u32) << 7, j, points));
             let w = mesh.weights_on(e, x);
             let b = at(x);
             for k in 0..4 {
