@@ -13,6 +13,7 @@
 //! parameters, which gives the element and the interpolation weights at once.
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use crate::accel::Hit;
 use crate::geometry::{ParamSurface, Patch};
@@ -572,175 +573,15 @@ impl RadiosityMesh {
             rest_of[k] = union(before[k], after);
             after = union(after, bounds[k]);
         }
-        for (si, shape) in scene.shapes.iter().enumerate() {
-            let first_patch = mesh.patches.len() as u32;
-            mesh.shape_first_patch.push(first_patch);
-            let bsdf = &scene.bsdfs[shape.bsdf as usize];
-            let reflectance = bsdf.kind.diffuse_albedo();
-            // A textured material's patches each take the texture's mean over their own
-            // triangles: the triangles of each of the shape's patches.
-            let tris_of: Vec<Vec<u32>> = if textured_albedo(bsdf) {
-                let mut v = vec![Vec::new(); shape.mesh.patches.len()];
-                for (t, &p) in shape.mesh.tri_patch.iter().enumerate() {
-                    if let Some(list) = v.get_mut(p as usize) {
-                        list.push(t as u32);
-                    }
-                }
-                v
-            } else {
-                Vec::new()
-            };
-            // A surface without diffuse reflectance keeps no radiosity: one element per
-            // patch. An emitting one (a lamp's black shade, a sky dome) keeps its
-            // patches, which its light is shot from, but needs no finer elements.
-            let black = !(reflectance.max_element() > 0.0);
-            let inert = black && !emitting.contains(&(si as u32));
-            let size = if black { f32::INFINITY } else { mesh_size };
-            let groups = lattice::clusters(&shape.mesh, mesh_size, inert);
-            // Per cluster, the offset of its (first) patch from the shape's first.
-            let mut cluster_patch = Vec::with_capacity(groups.members.len());
-            for members in &groups.members {
-                // (A surface cut into pieces keeps the mesh size: `fine` names the
-                // cluster by its first polygon, which all its pieces share.)
-                let base = size;
-                let size = fine.get(&(si as u32, members[0])).map_or(size, |f| f * size);
-                cluster_patch.push(mesh.patches.len() as u32 - first_patch);
-                let (reflectance, opacity) = if tris_of.is_empty() {
-                    (reflectance, 1.0)
-                } else {
-                    let tris = members
-                        .iter()
-                        .flat_map(|&m| tris_of.get(m as usize).into_iter().flatten().copied());
-                    mean_albedo(&shape.mesh, tris, bsdf, &scene.textures)
-                };
-                let domains = if members.len() == 1 {
-                    patch_domains(&shape.mesh, &shape.mesh.patches[members[0] as usize])
-                } else {
-                    Vec::new()
-                };
-                // A surface too large for one patch: pieces, each meshed by a lattice.
-                let flat = domains
-                    .iter()
-                    .all(|d| matches!(d, Domain::Tri(_) | Domain::Quad(_)));
-                let large = members.len() > 1
-                    || flat
-                        && domains.iter().any(|d| {
-                            let (n, m) = grid_size(d, base);
-                            n.max(m) > SPLIT_ABOVE
-                        });
-                // (At most MAX_DIVISIONS pieces a side: a tiny `--mesh-size` must not
-                // make the cut itself unbounded. Far pieces are coarse, so the pieces at
-                // the mesh size cover about the rest of the scene, as its own mesh does.)
-                let tris = if large && base.is_finite() {
-                    cluster_triangles(&shape.mesh, members)
-                } else {
-                    Vec::new()
-                };
-                let cut = if !tris.is_empty() {
-                    lattice::cut(&tris, base, SPLIT_ABOVE, SPLIT_SIDE, MAX_DIVISIONS)
-                } else {
-                    None
-                };
-                let (lattices, pieces): (Vec<(Surface, f32)>, Vec<Vec<Domain>>) = match cut {
-                    Some((parts, cut)) => {
-                        mesh.splits.insert(mesh.patches.len() as u32, cut);
-                        let rest = rest_of[si];
-                        let graded = parts
-                            .into_iter()
-                            .map(|tris| {
-                                let (lo, hi) = tri_bounds(&tris);
-                                let d = if rest.0.x <= rest.1.x {
-                                    (lo.max(rest.0) - hi.min(rest.1)).max(Vec3::ZERO).length()
-                                } else {
-                                    0.0
-                                };
-                                let t = (SPLIT_SIDE as f32 * base).max(0.25 * (rest.1 - rest.0).length());
-                                let s = base * (d / t).max(1.0).powi(2);
-                                (tris, s)
-                            })
-                            .collect();
-                        (graded, Vec::new())
-                    }
-                    None if members.len() > 1 => {
-                        (vec![(cluster_triangles(&shape.mesh, members), size)], Vec::new())
-                    }
-                    None => (Vec::new(), vec![domains]),
-                };
-                for (surface, size) in lattices {
-                    let patch_index = mesh.patches.len() as u32;
-                    let first_vertex = mesh.vertices.len() as u32;
-                    let (lat, verts, a) = lattice::build(surface, size);
-                    let elements = lat.cells.len() as u32;
-                    mesh.vertices.extend(verts.into_iter().map(|v| MeshVertex {
-                        p: v.p,
-                        n: v.n,
-                        q: v.q,
-                        area: v.area,
-                        patch: patch_index,
-                    }));
-                    let grids = vec![Grid {
-                        n: lat.n,
-                        m: lat.m,
-                        domain: Domain::Lattice(Box::new(lat)),
-                        first_vertex,
-                        flip: false,
-                        area: a,
-                        covered: Vec::new(),
-                    }];
-                    mesh.push_patch(
-                        si as u32,
-                        members[0],
-                        grids,
-                        first_vertex,
-                        elements,
-                        a,
-                        reflectance,
-                        opacity,
-                    );
-                }
-                for domains in pieces {
-                    let patch_index = mesh.patches.len() as u32;
-                    let first_vertex = mesh.vertices.len() as u32;
-                    let mut grids = Vec::new();
-                    let mut area = 0.0;
-                    let mut elements = 0;
-                    for domain in domains {
-                        let (n, m) = grid_size(&domain, size);
-                        let mut grid = Grid {
-                            domain,
-                            n,
-                            m,
-                            first_vertex: mesh.vertices.len() as u32,
-                            flip: false,
-                            area: 0.0,
-                            covered: Vec::new(),
-                        };
-                        let (verts, a) = grid_vertices(&grid, patch_index);
-                        grid.area = a;
-                        area += a;
-                        elements += grid.element_count();
-                        mesh.vertices.extend(verts);
-                        grids.push(grid);
-                    }
-                    mesh.push_patch(
-                        si as u32,
-                        members[0],
-                        grids,
-                        first_vertex,
-                        elements,
-                        area,
-                        reflectance,
-                        opacity,
-                    );
-                }
-            }
-            mesh.patch_map.push(
-                groups
-                    .of_patch
-                    .iter()
-                    .map(|&c| cluster_patch[c as usize])
-                    .collect(),
-            );
+        // Each shape's patches and vertices apart, in parallel (its indices counted
+        // from its own first), then appended in shape order: the same mesh as one
+        // shape after another.
+        let parts: Vec<RadiosityMesh> = (0..scene.shapes.len())
+            .into_par_iter()
+            .map(|si| Self::shape_part(scene, si, mesh_size, fine, &emitting, rest_of[si]))
+            .collect();
+        for part in parts {
+            mesh.append(part);
         }
         mesh.front_patches = mesh.patches.len() as u32;
         // Back twins of two-sided patches.
@@ -786,6 +627,220 @@ impl RadiosityMesh {
             mesh.patches.push(twin);
         }
         mesh
+    }
+
+    /// The patches and vertices of shape `si` alone, its indices counted from its own
+    /// first patch and vertex ([`RadiosityMesh::append`] moves them into place).
+    fn shape_part(
+        scene: &Scene,
+        si: usize,
+        mesh_size: f32,
+        fine: &std::collections::HashMap<(u32, u32), f32>,
+        emitting: &std::collections::HashSet<u32>,
+        rest_of: (Vec3, Vec3),
+    ) -> Self {
+        let shape = &scene.shapes[si];
+        let mut mesh = RadiosityMesh {
+            mesh_size,
+            patches: Vec::new(),
+            vertices: Vec::new(),
+            shape_first_patch: Vec::new(),
+            patch_map: Vec::new(),
+            front_patches: 0,
+            refined: 0,
+            splits: std::collections::HashMap::new(),
+            albedo: Vec::new(),
+        };
+        let bsdf = &scene.bsdfs[shape.bsdf as usize];
+        let reflectance = bsdf.kind.diffuse_albedo();
+        // A textured material's patches each take the texture's mean over their own
+        // triangles: the triangles of each of the shape's patches.
+        let tris_of: Vec<Vec<u32>> = if textured_albedo(bsdf) {
+            let mut v = vec![Vec::new(); shape.mesh.patches.len()];
+            for (t, &p) in shape.mesh.tri_patch.iter().enumerate() {
+                if let Some(list) = v.get_mut(p as usize) {
+                    list.push(t as u32);
+                }
+            }
+            v
+        } else {
+            Vec::new()
+        };
+        // A surface without diffuse reflectance keeps no radiosity: one element per
+        // patch. An emitting one (a lamp's black shade, a sky dome) keeps its
+        // patches, which its light is shot from, but needs no finer elements.
+        let black = !(reflectance.max_element() > 0.0);
+        let inert = black && !emitting.contains(&(si as u32));
+        let size = if black { f32::INFINITY } else { mesh_size };
+        let groups = lattice::clusters(&shape.mesh, mesh_size, inert);
+        // Per cluster, the offset of its (first) patch from the shape's first.
+        let mut cluster_patch = Vec::with_capacity(groups.members.len());
+        for members in &groups.members {
+            // (A surface cut into pieces keeps the mesh size: `fine` names the
+            // cluster by its first polygon, which all its pieces share.)
+            let base = size;
+            let size = fine.get(&(si as u32, members[0])).map_or(size, |f| f * size);
+            cluster_patch.push(mesh.patches.len() as u32);
+            let (reflectance, opacity) = if tris_of.is_empty() {
+                (reflectance, 1.0)
+            } else {
+                let tris = members
+                    .iter()
+                    .flat_map(|&m| tris_of.get(m as usize).into_iter().flatten().copied());
+                mean_albedo(&shape.mesh, tris, bsdf, &scene.textures)
+            };
+            let domains = if members.len() == 1 {
+                patch_domains(&shape.mesh, &shape.mesh.patches[members[0] as usize])
+            } else {
+                Vec::new()
+            };
+            // A surface too large for one patch: pieces, each meshed by a lattice.
+            let flat = domains
+                .iter()
+                .all(|d| matches!(d, Domain::Tri(_) | Domain::Quad(_)));
+            let large = members.len() > 1
+                || flat
+                    && domains.iter().any(|d| {
+                        let (n, m) = grid_size(d, base);
+                        n.max(m) > SPLIT_ABOVE
+                    });
+            // (At most MAX_DIVISIONS pieces a side: a tiny `--mesh-size` must not
+            // make the cut itself unbounded. Far pieces are coarse, so the pieces at
+            // the mesh size cover about the rest of the scene, as its own mesh does.)
+            let tris = if large && base.is_finite() {
+                cluster_triangles(&shape.mesh, members)
+            } else {
+                Vec::new()
+            };
+            let cut = if !tris.is_empty() {
+                lattice::cut(&tris, base, SPLIT_ABOVE, SPLIT_SIDE, MAX_DIVISIONS)
+            } else {
+                None
+            };
+            let (lattices, pieces): (Vec<(Surface, f32)>, Vec<Vec<Domain>>) = match cut {
+                Some((parts, cut)) => {
+                    mesh.splits.insert(mesh.patches.len() as u32, cut);
+                    let rest = rest_of;
+                    let graded = parts
+                        .into_iter()
+                        .map(|tris| {
+                            let (lo, hi) = tri_bounds(&tris);
+                            let d = if rest.0.x <= rest.1.x {
+                                (lo.max(rest.0) - hi.min(rest.1)).max(Vec3::ZERO).length()
+                            } else {
+                                0.0
+                            };
+                            let t = (SPLIT_SIDE as f32 * base).max(0.25 * (rest.1 - rest.0).length());
+                            let s = base * (d / t).max(1.0).powi(2);
+                            (tris, s)
+                        })
+                        .collect();
+                    (graded, Vec::new())
+                }
+                None if members.len() > 1 => {
+                    (vec![(cluster_triangles(&shape.mesh, members), size)], Vec::new())
+                }
+                None => (Vec::new(), vec![domains]),
+            };
+            for (surface, size) in lattices {
+                let patch_index = mesh.patches.len() as u32;
+                let first_vertex = mesh.vertices.len() as u32;
+                let (lat, verts, a) = lattice::build(surface, size);
+                let elements = lat.cells.len() as u32;
+                mesh.vertices.extend(verts.into_iter().map(|v| MeshVertex {
+                    p: v.p,
+                    n: v.n,
+                    q: v.q,
+                    area: v.area,
+                    patch: patch_index,
+                }));
+                let grids = vec![Grid {
+                    n: lat.n,
+                    m: lat.m,
+                    domain: Domain::Lattice(Box::new(lat)),
+                    first_vertex,
+                    flip: false,
+                    area: a,
+                    covered: Vec::new(),
+                }];
+                mesh.push_patch(
+                    si as u32,
+                    members[0],
+                    grids,
+                    first_vertex,
+                    elements,
+                    a,
+                    reflectance,
+                    opacity,
+                );
+            }
+            for domains in pieces {
+                let patch_index = mesh.patches.len() as u32;
+                let first_vertex = mesh.vertices.len() as u32;
+                let mut grids = Vec::new();
+                let mut area = 0.0;
+                let mut elements = 0;
+                for domain in domains {
+                    let (n, m) = grid_size(&domain, size);
+                    let mut grid = Grid {
+                        domain,
+                        n,
+                        m,
+                        first_vertex: mesh.vertices.len() as u32,
+                        flip: false,
+                        area: 0.0,
+                        covered: Vec::new(),
+                    };
+                    let (verts, a) = grid_vertices(&grid, patch_index);
+                    grid.area = a;
+                    area += a;
+                    elements += grid.element_count();
+                    mesh.vertices.extend(verts);
+                    grids.push(grid);
+                }
+                mesh.push_patch(
+                    si as u32,
+                    members[0],
+                    grids,
+                    first_vertex,
+                    elements,
+                    area,
+                    reflectance,
+                    opacity,
+                );
+            }
+        }
+        mesh.patch_map.push(
+            groups
+                .of_patch
+                .iter()
+                .map(|&c| cluster_patch[c as usize])
+                .collect(),
+        );
+        mesh
+    }
+
+    /// Appends the patches of one shape made by [`RadiosityMesh::shape_part`], their
+    /// vertex and patch indices moved past those already here.
+    fn append(&mut self, part: RadiosityMesh) {
+        let first_patch = self.patches.len() as u32;
+        let first_vertex = self.vertices.len() as u32;
+        self.shape_first_patch.push(first_patch);
+        self.patch_map.extend(part.patch_map);
+        self.splits
+            .extend(part.splits.into_iter().map(|(p, cut)| (p + first_patch, cut)));
+        self.vertices
+            .extend(part.vertices.into_iter().map(|v| MeshVertex {
+                patch: v.patch + first_patch,
+                ..v
+            }));
+        self.patches.extend(part.patches.into_iter().map(|mut p| {
+            p.first_vertex += first_vertex;
+            for g in &mut p.grids {
+                g.first_vertex += first_vertex;
+            }
+            p
+        }));
     }
 
     /// Appends a front patch of shape `shape` (first scene patch `local`) made of
