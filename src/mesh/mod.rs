@@ -742,6 +742,19 @@ impl RadiosityMesh {
                 }
                 None => (Vec::new(), vec![domains]),
             };
+            // Appends a patch of this cluster made of `grids`.
+            let push = |mesh: &mut RadiosityMesh, grids, first_vertex, elements, area| {
+                mesh.push_patch(
+                    si as u32,
+                    members[0],
+                    grids,
+                    first_vertex,
+                    elements,
+                    area,
+                    reflectance,
+                    opacity,
+                );
+            };
             for (surface, size) in lattices {
                 let patch_index = mesh.patches.len() as u32;
                 let first_vertex = mesh.vertices.len() as u32;
@@ -763,16 +776,7 @@ impl RadiosityMesh {
                     area: a,
                     covered: Vec::new(),
                 }];
-                mesh.push_patch(
-                    si as u32,
-                    members[0],
-                    grids,
-                    first_vertex,
-                    elements,
-                    a,
-                    reflectance,
-                    opacity,
-                );
+                push(&mut mesh, grids, first_vertex, elements, a);
             }
             for domains in pieces {
                 let patch_index = mesh.patches.len() as u32;
@@ -798,16 +802,7 @@ impl RadiosityMesh {
                     mesh.vertices.extend(verts);
                     grids.push(grid);
                 }
-                mesh.push_patch(
-                    si as u32,
-                    members[0],
-                    grids,
-                    first_vertex,
-                    elements,
-                    area,
-                    reflectance,
-                    opacity,
-                );
+                push(&mut mesh, grids, first_vertex, elements, area);
             }
         }
         mesh.patch_map.push(
