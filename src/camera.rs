@@ -26,6 +26,16 @@ impl PixelScale {
             f32::INFINITY
         }
     }
+
+    /// The length that spans `pixels` pixels at distance `d` from the eye (the
+    /// inverse of [`PixelScale::pixels`]; 0 at the eye of a perspective camera).
+    pub fn length(&self, pixels: f32, d: f32) -> f32 {
+        if self.parallel {
+            pixels / self.per_unit
+        } else {
+            pixels * d.max(0.0) / self.per_unit
+        }
+    }
 }
 
 /// Generates primary rays through film positions.
@@ -148,11 +158,6 @@ impl Camera {
         }
     }
 
-    /// Pixels a unit length spans at distance `d` from the eye.
-    pub fn pixels_per_unit(&self, d: f32) -> f32 {
-        self.pixel_scale().pixels(1.0, d)
-    }
-
     /// Projects a world point to film coordinates in pixels; `None` behind the camera.
     pub fn project(&self, p: Vec3) -> Option<(f32, f32)> {
         let local = self.to_world.inverse().transform_point3(p);
@@ -246,8 +251,11 @@ mod tests {
         assert!((corner.dir - centre.dir).length() < 1e-6);
         let off = corner.origin - centre.origin;
         assert!((off - Vec3::new(-3.0, 1.5, 0.0)).length() < 1e-5, "{off}");
-        assert!((cam.pixels_per_unit(1.0) - 200.0 / 6.0).abs() < 1e-3);
-        assert_eq!(cam.pixels_per_unit(1.0), cam.pixels_per_unit(50.0));
+        assert!((cam.pixel_scale().pixels(1.0, 1.0) - 200.0 / 6.0).abs() < 1e-3);
+        assert_eq!(
+            cam.pixel_scale().pixels(1.0, 1.0),
+            cam.pixel_scale().pixels(1.0, 50.0)
+        );
         let (px, py) = cam.project(corner.at(4.0)).unwrap();
         assert!(px.abs() < 1e-3 && py.abs() < 1e-3, "{px} {py}");
     }
@@ -276,7 +284,7 @@ mod tests {
         let big = Camera::new(&full, 128, 96);
         let (a, b) = (twice.ray(3.0, 5.0), big.ray(63.0, 29.0));
         assert!((a.dir - b.dir).length() < 1e-6);
-        assert!((cam.pixels_per_unit(2.0) - whole.pixels_per_unit(2.0)).abs() < 1e-4);
+        assert!((cam.pixel_scale().pixels(1.0, 2.0) - whole.pixel_scale().pixels(1.0, 2.0)).abs() < 1e-4);
     }
 
     #[test]

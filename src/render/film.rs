@@ -30,18 +30,6 @@ pub struct FilmSample {
 pub use crate::scene::Filter;
 
 impl Filter {
-    /// The name used on the command line, in scene files and in the statistics.
-    pub fn name(self) -> &'static str {
-        match self {
-            Filter::Box => "box",
-            Filter::Tent => "tent",
-            Filter::Gaussian => "gaussian",
-            Filter::Mitchell => "mitchell",
-            Filter::Catmullrom => "catmullrom",
-            Filter::Lanczos => "lanczos",
-        }
-    }
-
     /// Half-width of the filter's support, in pixels.
     pub fn radius(self) -> f32 {
         match self {
@@ -260,15 +248,6 @@ mod tests {
         .0
     }
 
-    const ALL: [Filter; 6] = [
-        Filter::Box,
-        Filter::Tent,
-        Filter::Gaussian,
-        Filter::Mitchell,
-        Filter::Catmullrom,
-        Filter::Lanczos,
-    ];
-
     /// Closed forms: the tent's line, Mitchell and Netravali's cubic (B = C = 1/3:
     /// 16/18 at 0, 1/18 at 1; Catmull-Rom interpolates, 1 at 0 and 0 at 1), Lanczos
     /// at 1/2: sin(pi/2) sin(pi/6) / (pi^2/12). Each is 0 at its radius, and the
@@ -283,12 +262,12 @@ mod tests {
         assert!(near(Filter::Catmullrom.eval(0.0), 1.0) && near(Filter::Catmullrom.eval(1.0), 0.0));
         assert!(near(Filter::Lanczos.eval(0.0), 1.0) && near(Filter::Lanczos.eval(2.0), 0.0));
         assert!(near(Filter::Lanczos.eval(0.5), 0.5 / (PI * PI / 12.0)));
-        for f in ALL {
+        for f in Filter::ALL {
             assert!(near(f.eval(f.radius()), 0.0) || f == Filter::Box, "{f:?}");
             assert_eq!(f.eval(f.radius() + 0.01), 0.0);
             assert_eq!(f.dips(), (0..300).any(|k| f.eval(k as f32 * 0.01) < 0.0), "{f:?}");
         }
-        let names: Vec<&str> = ALL.iter().map(|f| f.name()).collect();
+        let names: Vec<&str> = Filter::ALL.iter().map(|f| f.name()).collect();
         assert_eq!(
             names,
             ["box", "tent", "gaussian", "mitchell", "catmullrom", "lanczos"]
@@ -342,7 +321,7 @@ mod tests {
                 })
             })
             .collect();
-        for f in ALL {
+        for f in Filter::ALL {
             let img = film(w, h, f, &samples);
             for p in &img.pixels {
                 assert!((*p - Vec3::new(0.2, 0.4, 0.8)).length() < 1e-6);

@@ -301,6 +301,7 @@ impl Gather {
         let (width, height) = (settings.width, settings.height);
         let (gw, gh) = (width.div_ceil(SPACING), height.div_ceil(SPACING));
         let this = &*self;
+        let scale = camera.pixel_scale();
         let rows: Vec<(Vec<Record>, Counters)> = (0..gh)
             .into_par_iter()
             .map(|gy| {
@@ -325,7 +326,7 @@ impl Gather {
                     let h = this.gather(ctx, &sp, patch, s, this.rays, &mut counters);
                     let (translation, rotation) = h.gradients();
                     // One grid step on the screen at the record's distance.
-                    let step = SPACING as f32 / camera.pixels_per_unit((sp.p - ray.origin).length());
+                    let step = scale.length(SPACING as f32, (sp.p - ray.origin).length());
                     out.push(Record {
                         p: sp.p,
                         n: sp.ns,

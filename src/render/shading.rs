@@ -166,7 +166,7 @@ impl<'a> Tracer<'a> {
         let mut sp = SurfacePoint::new(self.scene, ray, &hit);
         if depth == 0 {
             if let Some(scale) = self.pixel_scale {
-                sp = sp.with_footprint(1.0 / scale.pixels(1.0, hit.t * ray.dir.length()));
+                sp = sp.with_footprint(scale.length(1.0, hit.t * ray.dir.length()));
             }
         }
         let shape = &self.scene.shapes[hit.shape as usize];

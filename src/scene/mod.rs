@@ -463,6 +463,31 @@ pub enum Filter {
     Lanczos,
 }
 
+impl Filter {
+    /// Every filter, in the order the help lists them.
+    pub const ALL: [Filter; 6] = [
+        Filter::Box,
+        Filter::Tent,
+        Filter::Gaussian,
+        Filter::Mitchell,
+        Filter::Catmullrom,
+        Filter::Lanczos,
+    ];
+
+    /// The name used on the command line, in scene files (Mitsuba's) and in the
+    /// statistics.
+    pub fn name(self) -> &'static str {
+        match self {
+            Filter::Box => "box",
+            Filter::Tent => "tent",
+            Filter::Gaussian => "gaussian",
+            Filter::Mitchell => "mitchell",
+            Filter::Catmullrom => "catmullrom",
+            Filter::Lanczos => "lanczos",
+        }
+    }
+}
+
 /// How a sensor's film maps to rays.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Projection {

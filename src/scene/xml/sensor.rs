@@ -244,33 +244,31 @@ impl Loader {
         self.check_attrs(s, c, &["type", "id", "name"]);
         let ty = self.attr_req(s, c, "type")?;
         let obj = self.collect(s, c, format!("rfilter '{ty}'"))?;
-        // (filter, its parameters and their defaults)
-        let (filter, params): (Filter, &[(&str, f32)]) = match ty.as_str() {
-            "box" => (Filter::Box, &[]),
-            "tent" => (Filter::Tent, &[("radius", 1.0)]),
-            "gaussian" => (Filter::Gaussian, &[("stddev", 0.5)]),
-            "mitchell" => (Filter::Mitchell, &[("B", 1.0 / 3.0), ("C", 1.0 / 3.0)]),
-            "catmullrom" => (Filter::Catmullrom, &[]),
-            "lanczos" => (Filter::Lanczos, &[("lobes", 3.0)]),
-            other => {
+        let filter = match Filter::ALL.into_iter().find(|f| f.name() == ty) {
+            Some(f) => f,
+            None => {
+                let names: Vec<String> = Filter::ALL.iter().map(|f| format!("'{}'", f.name())).collect();
                 self.warn(
                     s,
                     c,
                     format!(
-                        "rfilter '{other}' read as 'gaussian': radtrace has 'box', 'tent', \
-                         'gaussian', 'mitchell', 'catmullrom' and 'lanczos'"
+                        "rfilter '{ty}' read as 'gaussian': radtrace has {}",
+                        names.join(", ")
                     ),
                 );
-                (Filter::Gaussian, &[])
+                Filter::Gaussian
             }
         };
+        // Mitsuba's parameters of each, and their defaults (the only values read).
+        let params: &[(&str, f32)] = match filter {
+            Filter::Box | Filter::Catmullrom => &[],
+            Filter::Tent => &[("radius", 1.0)],
+            Filter::Gaussian => &[("stddev", 0.5)],
+            Filter::Mitchell => &[("B", 1.0 / 3.0), ("C", 1.0 / 3.0)],
+            Filter::Lanczos => &[("lobes", 3.0)],
+        };
         for &(name, default) in params {
-            let given = match obj.get(name).map(|p| &p.val) {
-                Some(Val::Float(v)) => Some(*v),
-                Some(Val::Int(i)) => Some(*i as f32),
-                _ => None,
-            };
-            if let Some(v) = given.filter(|v| (v - default).abs() > 1e-6) {
+            if let Some(v) = obj.float(name)?.filter(|v| (v - default).abs() > 1e-6) {
                 self.warn(
                     s,
                     c,

@@ -141,7 +141,7 @@ impl Loader {
                     if bsdf.is_some() {
                         return Err(s.err(*n, format!("shape '{name}' has more than one bsdf")));
                     }
-                    null = n.attribute("type") == Some("null");
+                    null = self.attr(s, *n, "type")?.as_deref() == Some("null");
                     let b = self.bsdf(s, *n)?;
                     let bid = self.attr(s, *n, "id")?;
                     bsdf = Some(self.add_bsdf(b, bid.as_deref()));
