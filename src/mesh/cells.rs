@@ -371,6 +371,33 @@ pub fn quarter(poly: &[Vec3], k: usize) -> ([Vec3; 4], usize) {
     )
 }
 
+/// The point at `u` in the cell polygon `poly` (as [`point_in_polygon`]), drawn in
+/// proportion to the field over its `quarters` (as [`ShootCell::quarters`]): `u.x`
+/// picks a quarter by its share of their sum (luminance) and, stretched back to
+/// [0, 1), places the point in it with `u.y`. A uniform `u` then gives points of
+/// density proportional to the field at the quarters' scale, and a quarter of no
+/// light gets none. With no light in any quarter, uniform.
+pub fn point_by_quarters(poly: &[Vec3], quarters: &[Rgb; 4], u: Vec2) -> Vec3 {
+    let w = quarters.map(|q| q.element_sum().max(0.0));
+    let sum: f32 = w.iter().sum();
+    if !(sum > 0.0) || !sum.is_finite() {
+        return point_in_polygon(poly, u);
+    }
+    let mut x = u.x * sum;
+    let mut k = 0;
+    while k < 3 && (x >= w[k] || w[k] <= 0.0) {
+        x -= w[k];
+        k += 1;
+    }
+    // The rounding of the last subtraction may leave `k` at an empty quarter.
+    while w[k] <= 0.0 {
+        k -= 1;
+    }
+    let a = (x / w[k]).clamp(0.0, 1.0 - f32::EPSILON);
+    let (c, len) = quarter(poly, k);
+    point_in_polygon(&c[..len], Vec2::new(a, u.y))
+}
+
 /// The point at `u` in the triangle or (planar) quadrilateral `poly`: barycentric,
 /// uniform in area, for a triangle; bilinear in the corners for a quadrilateral.
 pub fn point_in_polygon(poly: &[Vec3], u: Vec2) -> Vec3 {

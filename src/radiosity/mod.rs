@@ -659,7 +659,7 @@ impl Solver<'_> {
         self.mesh
             .shoot_cells(p, count, jitter, &self.unshot)
             .iter()
-            .map(ShootPoint::from_cell)
+            .map(|c| ShootPoint::from_patch_cell(c, self.accel))
             .collect()
     }
 

@@ -132,6 +132,58 @@ fn form_factor_between_perpendicular_unit_squares_sharing_an_edge() {
     assert!((f - 0.20004).abs() < 0.002, "F = {f}");
 }
 
+/// Two rooms under one floor, ceiling and pair of side walls (each a single patch
+/// spanning both), parted by a closed wall at x 1.45..1.55 (a box resting on the floor,
+/// touching the ceiling and side walls), a point light in the right room. The patch
+/// shots' cells straddle the wall; a cell's rays once aimed uniformly over it, so one
+/// from a left-room vertex found the cell's dark left part visible and took it for the
+/// lit right part's light: the left room, which no light can reach, got 1.8 % of the
+/// right room's (0 now that the rays aim by the light over the cell's quarters).
+#[test]
+fn a_wall_keeps_the_light_of_patches_that_span_two_rooms_in_its_room() {
+    let v = Vec3::new;
+    let mut shapes: Vec<(TriMesh, Rgb)> = box_inside(v(0., 0., 0.), v(4., 1., 1.))
+        .into_iter()
+        .map(|f| (f, Vec3::splat(0.7)))
+        .collect();
+    shapes.extend(
+        box_outside(v(1.45, 0., 0.), v(1.55, 1., 1.))
+            .into_iter()
+            .map(|f| (f, Vec3::splat(0.7))),
+    );
+    let light = Light::Point {
+        position: v(3.0, 0.6, 0.5),
+        intensity: Vec3::splat(3.0),
+    };
+    let s = scene(shapes, vec![light], &[]);
+    let sol = solve(&s, &Bvh::build(&s), &settings(0.1, 16, 100), &Silent).unwrap();
+    assert!(
+        sol.stats.patch_shots >= 4,
+        "{} patch shots",
+        sol.stats.patch_shots
+    );
+    let total = sol.total();
+    // The floor's (shape 2) mean over the vertices well inside each room.
+    let floor = &sol.mesh.patches[2];
+    let mean_where = |inside: &dyn Fn(f32) -> bool| {
+        let (mut sum, mut area) = (0.0, 0.0);
+        for i in floor.first_vertex..floor.first_vertex + floor.vertex_count {
+            let vx = &sol.mesh.vertices[i as usize];
+            if inside(vx.p.x) {
+                sum += total[i as usize].x * vx.area;
+                area += vx.area;
+            }
+        }
+        sum / area
+    };
+    let (left, right) = (mean_where(&|x| x < 1.2), mean_where(&|x| x > 2.0));
+    assert!(right > 0.1, "right room's floor {right}");
+    assert!(
+        left < 0.002 * right,
+        "left room's floor {left} of the right's {right}"
+    );
+}
+
 /// A closed cube whose faces all emit radiosity E and reflect rho: the reflected
 /// radiosity converges to rho E / (1 - rho) (total E / (1 - rho)).
 #[test]
@@ -874,6 +926,7 @@ fn cells_touch_where_they_share_a_corner() {
             quarters: None,
             flat: true,
             far: None,
+            parted: false,
         }
     };
     let cells = [cell(0., 0.), cell(1., 0.), cell(2., 1.), cell(5., 5.)];
