@@ -76,8 +76,8 @@ impl RadiosityMesh {
                 for (c, &(cs, ct)) in corners.iter().enumerate() {
                     poly[c] = grid.eval(cs, ct).0;
                 }
-                let (value, quarters) = if field.is_empty() {
-                    (Vec3::ZERO, [Vec3::ZERO; 4])
+                let (value, quarters, sixteenths) = if field.is_empty() {
+                    (Vec3::ZERO, [Vec3::ZERO; 4], None)
                 } else {
                     cell_mean(q, tri, |a, b| {
                         let (s, t) = at(a, b);
@@ -128,6 +128,7 @@ impl RadiosityMesh {
                     n,
                     value,
                     quarters,
+                    sixteenths,
                     weight,
                     flat: !curved,
                 });
@@ -190,6 +191,11 @@ pub struct ShootCell {
     pub value: Rgb,
     /// The means over the cell's quarters ([`ShootCell::quarter`]), by the same points.
     pub quarters: [Rgb; 4],
+    /// Of a quadrilateral carrying a field, the field's luminance over its 4 x 4
+    /// sixteenths in local coordinates (sixteenth i + 4 j spans [i/4, (i+1)/4] x
+    /// [j/4, (j+1)/4]), by the same points: where a parted cell's rays aim
+    /// ([`point_by_light`]).
+    pub sixteenths: Option<[f32; 16]>,
     /// What the cell's light counts for: 1, or (area of the surface) / (area of the
     /// cells drawn) when the cells are a sample of a surface of more pieces than cells.
     pub weight: f32,
@@ -202,12 +208,15 @@ pub struct ShootCell {
 /// quarters ([`ShootCell::quarter`]): on a square's grid of cell centres (`tri`
 /// false; local coordinates in [0, 1]^2), or at the centroids of a triangle cut into
 /// q^2 (`tri` true; barycentrics of corners 1 and 2). An odd `q` is taken one
-/// higher, so that the points fall evenly into the quarters.
-fn cell_mean(q: u32, tri: bool, f: impl Fn(f32, f32) -> Rgb) -> (Rgb, [Rgb; 4]) {
+/// higher, so that the points fall evenly into the quarters. A quadrilateral's third
+/// result is the luminance over its 4 x 4 sixteenths ([`ShootCell::sixteenths`]).
+fn cell_mean(q: u32, tri: bool, f: impl Fn(f32, f32) -> Rgb) -> (Rgb, [Rgb; 4], Option<[f32; 16]>) {
     let q = q + q % 2;
     let qf = q as f32;
     let mut quarters = [Vec3::ZERO; 4];
+    let (mut fine, mut fine_n) = ([0.0f32; 16], [0u32; 16]);
     let mut add = |a: f32, b: f32| {
+        let v = f(a, b);
         let k = if tri {
             // Corner 0's, corner 1's, corner 2's, then the middle triangle.
             if a + b < 0.5 {
@@ -220,9 +229,13 @@ fn cell_mean(q: u32, tri: bool, f: impl Fn(f32, f32) -> Rgb) -> (Rgb, [Rgb; 4]) 
                 3
             }
         } else {
+            let bin = |t: f32| ((t * 4.0) as usize).min(3);
+            let i = bin(a) + 4 * bin(b);
+            fine[i] += v.element_sum();
+            fine_n[i] += 1;
             usize::from(a > 0.5) + 2 * usize::from(b > 0.5)
         };
-        quarters[k] += f(a, b);
+        quarters[k] += v;
     };
     for j in 0..q {
         if tri {
@@ -241,7 +254,14 @@ fn cell_mean(q: u32, tri: bool, f: impl Fn(f32, f32) -> Rgb) -> (Rgb, [Rgb; 4]) 
     }
     let per = (q * q / 4) as f32;
     let quarters = quarters.map(|v| v / per);
-    (quarters.iter().copied().sum::<Rgb>() / 4.0, quarters)
+    // A sixteenth no point fell in (fewer than 4 x 4 points) takes its quarter's.
+    let sixteenths = (!tri).then(|| {
+        std::array::from_fn(|i| match fine_n[i] {
+            0 => quarters[(i % 4) / 2 + 2 * ((i / 4) / 2)].element_sum(),
+            n => fine[i] / n as f32,
+        })
+    });
+    (quarters.iter().copied().sum::<Rgb>() / 4.0, quarters, sixteenths)
 }
 
 /// About `count` shooting cells over the triangles `tris` (the exact surface, wound to
@@ -300,7 +320,7 @@ fn flat_cell(poly: &[Vec3], p: Vec3, weight: f32, mesh_size: f32, value: impl Fn
     };
     let side = (0.5 * n.length()).sqrt();
     let q = ((2.0 * side / mesh_size.max(1e-30)).ceil() as u32).clamp(1, 16);
-    let (value, quarters) = cell_mean(q, tri, |a, b| {
+    let (value, quarters, sixteenths) = cell_mean(q, tri, |a, b| {
         value(if tri {
             poly[0] + (poly[1] - poly[0]) * a + (poly[2] - poly[0]) * b
         } else {
@@ -316,6 +336,7 @@ fn flat_cell(poly: &[Vec3], p: Vec3, weight: f32, mesh_size: f32, value: impl Fn
         n: n.normalize_or(Vec3::Z),
         value,
         quarters,
+        sixteenths,
         weight,
         flat: true,
     }
@@ -372,30 +393,52 @@ pub fn quarter(poly: &[Vec3], k: usize) -> ([Vec3; 4], usize) {
 }
 
 /// The point at `u` in the cell polygon `poly` (as [`point_in_polygon`]), drawn in
-/// proportion to the field over its `quarters` (as [`ShootCell::quarters`]): `u.x`
-/// picks a quarter by its share of their sum (luminance) and, stretched back to
+/// proportion to the field over its pieces: a quadrilateral's `sixteenths` if given
+/// (as [`ShootCell::sixteenths`]), else its `quarters` (as [`ShootCell::quarters`]).
+/// `u.x` picks a piece by its share of their sum (luminance) and, stretched back to
 /// [0, 1), places the point in it with `u.y`. A uniform `u` then gives points of
-/// density proportional to the field at the quarters' scale, and a quarter of no
-/// light gets none. With no light in any quarter, uniform.
-pub fn point_by_quarters(poly: &[Vec3], quarters: &[Rgb; 4], u: Vec2) -> Vec3 {
-    let w = quarters.map(|q| q.element_sum().max(0.0));
-    let sum: f32 = w.iter().sum();
-    if !(sum > 0.0) || !sum.is_finite() {
-        return point_in_polygon(poly, u);
+/// density proportional to the field at the pieces' scale, and a piece of no light
+/// gets none. With no light in any piece, uniform.
+pub fn point_by_light(poly: &[Vec3], quarters: &[Rgb; 4], sixteenths: Option<&[f32; 16]>, u: Vec2) -> Vec3 {
+    if let (Some(w), 4) = (sixteenths, poly.len()) {
+        return match pick(w, u.x) {
+            Some((k, a)) => {
+                let (i, j) = ((k % 4) as f32, (k / 4) as f32);
+                point_in_polygon(poly, Vec2::new((i + a) / 4.0, (j + u.y) / 4.0))
+            }
+            None => point_in_polygon(poly, u),
+        };
     }
-    let mut x = u.x * sum;
+    match pick(&quarters.map(|q| q.element_sum()), u.x) {
+        Some((k, a)) => {
+            let (c, len) = quarter(poly, k);
+            point_in_polygon(&c[..len], Vec2::new(a, u.y))
+        }
+        None => point_in_polygon(poly, u),
+    }
+}
+
+/// The piece of weights `w` (negatives as none) that `x` in [0, 1) falls in by its
+/// share of their sum, and where in the piece's share it fell, in [0, 1); `None`
+/// when no piece has weight.
+fn pick(w: &[f32], x: f32) -> Option<(usize, f32)> {
+    let n = w.len();
+    let w = |k: usize| w[k].max(0.0);
+    let sum: f32 = (0..n).map(w).sum();
+    if !(sum > 0.0) || !sum.is_finite() {
+        return None;
+    }
+    let mut x = x * sum;
     let mut k = 0;
-    while k < 3 && (x >= w[k] || w[k] <= 0.0) {
-        x -= w[k];
+    while k + 1 < n && (x >= w(k) || w(k) <= 0.0) {
+        x -= w(k);
         k += 1;
     }
-    // The rounding of the last subtraction may leave `k` at an empty quarter.
-    while w[k] <= 0.0 {
+    // The rounding of the last subtraction may leave `k` at an empty piece.
+    while w(k) <= 0.0 {
         k -= 1;
     }
-    let a = (x / w[k]).clamp(0.0, 1.0 - f32::EPSILON);
-    let (c, len) = quarter(poly, k);
-    point_in_polygon(&c[..len], Vec2::new(a, u.y))
+    Some((k, (x / w(k)).clamp(0.0, 1.0 - f32::EPSILON)))
 }
 
 /// The point at `u` in the triangle or (planar) quadrilateral `poly`: barycentric,

@@ -1109,12 +1109,13 @@ fn a_surface_too_large_for_one_patch_is_cut_into_patches_found_by_position() {
     }
 }
 
-/// Points drawn by the quarters' light fall in each quarter of a square cell in
-/// proportion to its light (none in a dark quarter), and uniformly when every quarter
-/// is dark; on a triangle the quarters are its corner and middle triangles.
+/// Points drawn by a cell's light fall in each quarter of a square cell in proportion
+/// to its light (none in a dark quarter), and uniformly when every quarter is dark;
+/// on a triangle the quarters are its corner and middle triangles; given the 4 x 4
+/// sixteenths of a quadrilateral, in each sixteenth by its light.
 #[test]
-fn points_by_quarters_follow_the_light_over_the_cell() {
-    use crate::mesh::{point_by_quarters, quarter};
+fn points_by_light_follow_the_light_over_the_cell() {
+    use crate::mesh::{point_by_light, quarter};
     let square = [
         Vec3::ZERO,
         Vec3::new(2.0, 0.0, 0.0),
@@ -1122,12 +1123,12 @@ fn points_by_quarters_follow_the_light_over_the_cell() {
         Vec3::new(0.0, 2.0, 0.0),
     ];
     let n = 64u32;
-    let count = |poly: &[Vec3], q: [Rgb; 4], inside: &dyn Fn(Vec3) -> usize| {
-        let mut c = [0u32; 4];
+    let count = |poly: &[Vec3], q: [Rgb; 4], fine: Option<[f32; 16]>, inside: &dyn Fn(Vec3) -> usize| {
+        let mut c = [0u32; 16];
         for i in 0..n {
             for j in 0..n {
                 let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-                c[inside(point_by_quarters(poly, &q, u))] += 1;
+                c[inside(point_by_light(poly, &q, fine.as_ref(), u))] += 1;
             }
         }
         c.map(|k| k as f32 / (n * n) as f32)
@@ -1135,12 +1136,23 @@ fn points_by_quarters_follow_the_light_over_the_cell() {
     // Quarter k of the square: x > 1 adds 1, y > 1 adds 2.
     let of_square = |p: Vec3| usize::from(p.x > 1.0) + 2 * usize::from(p.y > 1.0);
     let light = [Vec3::splat(3.0), Vec3::ZERO, Vec3::splat(1.0), Vec3::ZERO];
-    let share = count(&square, light, &of_square);
+    let share = count(&square, light, None, &of_square);
     for (k, want) in [0.75, 0.0, 0.25, 0.0].into_iter().enumerate() {
         assert!((share[k] - want).abs() < 1e-3, "quarter {k}: {share:?}");
     }
-    let share = count(&square, [Vec3::ZERO; 4], &of_square);
-    assert!(share.iter().all(|s| (s - 0.25).abs() < 1e-3), "{share:?}");
+    let share = count(&square, [Vec3::ZERO; 4], None, &of_square);
+    assert!(share[..4].iter().all(|s| (s - 0.25).abs() < 1e-3), "{share:?}");
+    // Sixteenths: only the column x in [0.5, 1] lit (two of its four thrice the rest).
+    let mut fine = [0.0f32; 16];
+    for j in 0..4 {
+        fine[1 + 4 * j] = if j < 2 { 3.0 } else { 1.0 };
+    }
+    let of_sixteenth = |p: Vec3| ((p.x * 2.0) as usize).min(3) + 4 * ((p.y * 2.0) as usize).min(3);
+    let share = count(&square, light, Some(fine), &of_sixteenth);
+    for (k, s) in share.iter().enumerate() {
+        let want = fine[k] / 8.0;
+        assert!((s - want).abs() < 1e-3, "sixteenth {k}: {share:?}");
+    }
     // A triangle: only its middle quarter lit.
     let tri = [Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
     let (mid, _) = quarter(&tri, 3);
@@ -1150,6 +1162,11 @@ fn points_by_quarters_follow_the_light_over_the_cell() {
         let s = [e(mid[0], mid[1]), e(mid[1], mid[2]), e(mid[2], mid[0])];
         usize::from(s.iter().all(|&x| x >= -1e-6) || s.iter().all(|&x| x <= 1e-6))
     };
-    let share = count(&tri, [Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ONE], &in_mid);
+    let share = count(
+        &tri,
+        [Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ONE],
+        None,
+        &in_mid,
+    );
     assert!(share[1] > 0.999, "{share:?}");
 }

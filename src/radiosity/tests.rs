@@ -924,6 +924,7 @@ fn cells_touch_where_they_share_a_corner() {
             len: 4,
             radiosity: Vec3::ONE,
             quarters: None,
+            sixteenths: None,
             flat: true,
             far: None,
             parted: false,
