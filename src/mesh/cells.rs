@@ -103,14 +103,6 @@ impl RadiosityMesh {
                             loop_pts.push(grid.eval(a.0 + (b.0 - a.0) * f, a.1 + (b.1 - a.1) * f).0);
                         }
                     }
-                    let vector_area = |pts: &[Vec3]| {
-                        let o = pts[0];
-                        (1..pts.len() - 1)
-                            .map(|k| (pts[k] - o).cross(pts[k + 1] - o))
-                            .sum::<Vec3>()
-                            .length()
-                            * 0.5
-                    };
                     let chord = vector_area(&poly);
                     let edge = vector_area(&loop_pts);
                     if chord > 0.0 && edge.is_finite() {
@@ -439,6 +431,19 @@ fn pick(w: &[f32], x: f32) -> Option<(usize, f32)> {
         k -= 1;
     }
     Some((k, (x / w(k)).clamp(0.0, 1.0 - f32::EPSILON)))
+}
+
+/// The length of the vector area of the closed loop `pts` (half the sum of the
+/// cross products of its fan from the first point): a planar polygon's area.
+pub fn vector_area(pts: &[Vec3]) -> f32 {
+    let Some(&o) = pts.first() else {
+        return 0.0;
+    };
+    (1..pts.len().saturating_sub(1))
+        .map(|k| (pts[k] - o).cross(pts[k + 1] - o))
+        .sum::<Vec3>()
+        .length()
+        * 0.5
 }
 
 /// The point at `u` in the triangle or (planar) quadrilateral `poly`: barycentric,

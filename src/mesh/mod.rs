@@ -30,7 +30,7 @@ mod pieces;
 mod size;
 
 pub use albedo::{mean_albedo, textured_albedo};
-pub use cells::{point_by_light, point_in_polygon, quarter, ShootCell};
+pub use cells::{point_by_light, point_in_polygon, quarter, vector_area, ShootCell};
 pub use lattice::Lattice;
 pub use midpoints::{Between, Midpoints};
 pub use pieces::Piece;

@@ -11,7 +11,7 @@ use crate::accel::Accel;
 use crate::emitters::SampledLight;
 use crate::geometry::{point_polygon_form_factor, polygon_vector_form_factor};
 use crate::interaction::{ray_epsilon, shadow_ray, transmittance};
-use crate::mesh::{point_by_light, point_in_polygon, MeshVertex};
+use crate::mesh::{point_by_light, point_in_polygon, vector_area, MeshVertex};
 use crate::sampling::stratum;
 use crate::scene::{mean, Rgb};
 
@@ -233,25 +233,21 @@ impl ShootPoint {
     /// it. A shadow ray from a receiver to a point drawn uniformly in such a cell finds
     /// the part on its own side of the obstacle and takes it for the cell's light;
     /// where a wall stands on a floor, ceiling or wall that runs on into the next room,
-    /// the dark side then passed the lit side's light through the wall (a room of my
-    /// own lit only through a door ajar came out 5 to 30 times too bright, FLIP against
-    /// Mitsuba 0.196; 0.042 aiming by the cell's quarters' light, 0.035 by its 4 x 4
-    /// sixteenths'). Drawn by the light, the points fall where the light is. Only parted cells are drawn so: all drawn so brightened the paper
-    /// room 1 %. The wooden staircase, whose arch wall stands on a floor that runs on
-    /// into the room behind it, lost 5-7 % on that wall's face (FLIP against Mitsuba
-    /// 0.0645 -> 0.0670 and 0.0687 on two seeds; its shots alone, without photons,
-    /// leave that face 5-10 % dark with or without this rule).
+    /// the dark side then passed the lit side's light through the wall
+    /// (`scenes/two-rooms`, lit only through a door ajar, came out 5 to 30 times too
+    /// bright: FLIP against Mitsuba 0.196; 0.042 aiming by the cell's quarters' light,
+    /// 0.035 by its 4 x 4 sixteenths'). Only parted cells aim so: all aiming so
+    /// brightened the paper room 1 %. The wooden staircase, whose arch wall stands on
+    /// a floor that runs on into the room behind it, lost 7-9 % on that wall's face
+    /// (FLIP against Mitsuba 0.0645 -> 0.0680 / 0.0687 on two seeds; its shots alone,
+    /// without photons, leave that face 5-13 % dark with or without this rule).
     pub(super) fn from_patch_cell(c: &crate::mesh::ShootCell, accel: &dyn Accel) -> Self {
         let mut sp = Self::from_cell(c);
         if !sp.flat {
             return sp;
         }
-        let poly = &c.corners[..c.len as usize];
-        let area: f32 = (1..poly.len() - 1)
-            .map(|k| 0.5 * (poly[k] - poly[0]).cross(poly[k + 1] - poly[0]).length())
-            .sum();
-        let side = area.sqrt();
-        let lift = c.n * (0.1 * side).max(1e-4);
+        let poly = c.polygon();
+        let lift = c.n * (0.1 * vector_area(poly).sqrt()).max(1e-4);
         let centre = |k: usize| {
             let (q, len) = crate::mesh::quarter(poly, k);
             q[..len].iter().sum::<Vec3>() / len as f32 + lift
