@@ -63,10 +63,22 @@ use shot::{sky_cells, Found, Levels, Receiver, ShootPoint, Touching, FIRST_LIGHT
 /// for a fiftieth of the rays. The budget, not the photons a level asks for, is the
 /// yardstick: `draft`'s 16 photons a vertex would make photons look cheap where they
 /// are only few (the Cornell box's `draft` lost its shots: FLIP 0.0283 -> 0.0463).
-/// Shots' power per ray against the budget's at the time (the budget's over the
-/// shot's): Cornell box and paper room 3 at most, conference room 15-40; so 8 keeps
-/// every shot of the first two and none of the third (conference `good`: solve
-/// 11.6 s -> 2.5 s, FLIP 0.0331 -> 0.0340). No budget (`--max-photons 0`), no rule.
+/// Shots' power per ray against the budget's at the time (the budget's over the shot's;
+/// 2026-11-27, shots that cast rays): Cornell box 2.1 at most, hall 2.0, paper room 2.1
+/// (2.9 at `final`), the other repository scenes under 1.5; the wooden staircase
+/// 3.1-6.2 (60 k vertices, every surface a rough plastic); the conference room 15-40.
+/// So 3 keeps every shot of the first and none of the last two. At 8 the staircase shot
+/// 9 patches, 5 s of its 12 s solve, and the room before its arch, lit through the
+/// arch, came out 7-11 % darker than Mitsuba's (its photons alone: within 0-4 %). A
+/// third of that is a bias of the shots' rays: a patch's cell is sampled again only
+/// where its own first ray disagrees with its neighbours', so a partly seen cell among
+/// hidden ones keeps p^2 of its light for its p (see `Solver::gather`), and a hall seen
+/// through an opening has many such; 16 rays a cell, no edge rule, no coherence, took
+/// back 2-3 % of it; the rest was not found. Staircase FLIP against Mitsuba 0.0680 /
+/// 0.0687 -> 0.0635 / 0.0635 (render seeds 0 / 1; Mitsuba's 64 spp 0.0650), the whole
+/// render 28 -> 23 s. Conference at 8: solve 11.6 s -> 2.5 s, FLIP 0.0331 -> 0.0340
+/// (its shots' ratio was measured 15-40 then too). No budget (`--max-photons 0`), no
+/// rule.
 ///
 /// However much of the light the lights' shots leave: the classroom (229 k vertices,
 /// 64 % left after its three spots) shot 11 dear patches for 6.8 s of its 15 s solve
@@ -77,7 +89,7 @@ use shot::{sky_cells, Found, Levels, Receiver, ShootPoint, Touching, FIRST_LIGHT
 /// that box's ceiling 30 % too bright, FLIP 0.119, a bias since gone.) Without the
 /// gather (`draft`), which reads the solution at the eye, that box is a little worse
 /// (0.0359 -> 0.0386, 1.9 -> 1.75 s).
-const SHOT_RAY_WORTH: f64 = 8.0;
+const SHOT_RAY_WORTH: f64 = 3.0;
 
 /// The photon budget that [`SHOT_RAY_WORTH`] weighs a patch shot against is
 /// `--max-photons`, but at most this many: so a cap above it buys photons without
