@@ -40,6 +40,7 @@ use crate::{Error, Result};
 mod coherence;
 mod form_factor;
 mod noise;
+mod parted;
 mod photons;
 mod project;
 mod shot;
@@ -750,6 +751,10 @@ impl Solver<'_> {
             }
             _ => (light_photons, shot_photons),
         };
+        let (emit_parted, parted_rays) = parted::parted_pieces(&self.mesh, self.accel, &self.unshot, &emit);
+        let (shot_parted, shot_parted_rays) =
+            parted::parted_pieces(&self.mesh, self.accel, &self.shot, &shot_emit);
+        self.stats.rays += parted_rays + shot_parted_rays;
         let tracer = photons::Tracer {
             scene: self.scene,
             accel: self.accel,
@@ -759,9 +764,11 @@ impl Solver<'_> {
             seed: self.settings.seed,
             patch_photons,
             emit,
+            emit_parted,
             emit_pick: Alias::new(&emit_power),
             shot: &self.shot,
             shot_emit,
+            shot_parted,
             shot_pick: Alias::new(&shot_power),
             shot_photons,
             light_photons,

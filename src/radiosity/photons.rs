@@ -62,10 +62,15 @@ pub struct Tracer<'a> {
     pub seed: u64,
     /// Surface pieces with unshot light, drawn by their power.
     pub emit: Vec<Piece>,
+    /// Per piece of `emit`, whether an obstacle parts its vertices
+    /// ([`super::parted::parted_pieces`]).
+    pub emit_parted: Vec<bool>,
     pub emit_pick: Option<Alias>,
     /// The shot radiosity, and the pieces that hold it, drawn by their power.
     pub shot: &'a [Rgb],
     pub shot_emit: Vec<Piece>,
+    /// Per piece of `shot_emit`, as `emit_parted`.
+    pub shot_parted: Vec<bool>,
     pub shot_pick: Option<Alias>,
     /// Photons from patches, from lights and from the shots (the last two only with
     /// mirrors in the scene).
@@ -128,10 +133,22 @@ impl<'a> Tracer<'a> {
             let patch = i < self.patch_photons;
             let light = !patch && i < self.patch_photons + self.light_photons;
             let (origin, normal, dir, power, source, start) = if !light {
-                let (table, pieces, field, count) = if patch {
-                    (&self.emit_pick, &self.emit, self.unshot, self.patch_photons)
+                let (table, pieces, parted, field, count) = if patch {
+                    (
+                        &self.emit_pick,
+                        &self.emit,
+                        &self.emit_parted,
+                        self.unshot,
+                        self.patch_photons,
+                    )
                 } else {
-                    (&self.shot_pick, &self.shot_emit, self.shot, self.shot_photons)
+                    (
+                        &self.shot_pick,
+                        &self.shot_emit,
+                        &self.shot_parted,
+                        self.shot,
+                        self.shot_photons,
+                    )
                 };
                 let Some(table) = table else { continue };
                 let [a, b, cc] = next();
@@ -146,7 +163,10 @@ impl<'a> Tracer<'a> {
                 // the surface, not from inside a closed object.
                 let (x_out, n_out) = self.mesh.surface_at(e, x).unwrap_or((x, n));
                 let prob = table.probability(k);
-                let w = self.mesh.weights_on(e, x);
+                let mut w = self.mesh.weights_on(e, x);
+                if parted.get(k).copied().unwrap_or(false) {
+                    rays += super::parted::keep_visible(self.mesh, self.accel, &mut w, x, n, area);
+                }
                 let b = w.apply(field);
                 // Radiosity B over area A sends B A; per photon over its probability.
                 let power = b * (area / (prob as f32 * count as f32));
