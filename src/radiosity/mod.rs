@@ -41,6 +41,7 @@ mod coherence;
 mod form_factor;
 mod noise;
 mod parted;
+pub use parted::Parted;
 mod photons;
 mod project;
 mod shot;

@@ -165,7 +165,7 @@ impl<'a> Tracer<'a> {
                 let prob = table.probability(k);
                 let mut w = self.mesh.weights_on(e, x);
                 if parted.get(k).copied().unwrap_or(false) {
-                    rays += super::parted::keep_visible(self.mesh, self.accel, &mut w, x, n, area);
+                    rays += super::parted::keep_visible(self.mesh, self.accel, field, &mut w, x, area);
                 }
                 let b = w.apply(field);
                 // Radiosity B over area A sends B A; per photon over its probability.

@@ -54,8 +54,8 @@ use crate::accel::Accel;
 use crate::camera::Camera;
 use crate::emitters::{group_point, SampledLight};
 use crate::interaction::{reflect, transmittance, SurfacePoint};
-use crate::radiosity::Solution;
 use crate::radiosity::SourceId;
+use crate::radiosity::{Parted, Solution};
 use crate::sampling::{derive, pixel_seed, uniform2, uniform3, Stream};
 use crate::scene::{Rgb, Scene};
 use crate::selection::Selection;
@@ -233,6 +233,9 @@ pub struct Context<'a> {
     pub solution: &'a Solution,
     pub lights: &'a [SampledLight],
     pub area_samples: u32,
+    /// The pieces of the mesh that a wall stands on, where a hit reads the vertices
+    /// it sees ([`Parted`]); `None` reads them all.
+    pub parted: Option<&'a Parted>,
 }
 
 impl Gather {
@@ -517,7 +520,10 @@ impl Gather {
             if bsdf.kind.has_diffuse() {
                 let q = ctx.solution.mesh.patch_at(ctx.scene, &hit, y.front);
                 if bounce > 0 || !traced.contains(&q) {
-                    let w = ctx.solution.mesh.locate_on(ctx.scene, q, &hit, y.p);
+                    let mut w = ctx.solution.mesh.locate_on(ctx.scene, q, &hit, y.p);
+                    if let Some(parted) = ctx.parted {
+                        parted.keep_visible(&ctx.solution.mesh, ctx.accel, &mut w, y.p);
+                    }
                     let radiosity = if bounce == 0 && hit.t < self.near {
                         let rho = ctx.solution.mesh.albedo_at(&w);
                         let seed = derive(seed, Stream::Sample(k));
@@ -647,6 +653,7 @@ mod tests {
                 solution: &self.sol,
                 lights: &self.lights,
                 area_samples: 16,
+                parted: None,
             }
         }
     }
@@ -799,6 +806,7 @@ mod tests {
             solution: &sol,
             lights: &[],
             area_samples: 16,
+            parted: None,
         };
         let g = gather_of(&s, &ctx, crate::selection::Method::Twopass);
         let ray = Ray::new(v(0.9, 0.0, 0.5), v(0.0, 0.0, -1.0));

@@ -160,6 +160,7 @@ pub fn render(
             solution: sel.solution,
             lights: &sel.emitters[..scene.lights.len()],
             area_samples: settings.area_samples,
+            parted: tracer.parted(),
         };
         let mut g = Gather::new(&ctx, settings.gather, sel);
         first += g.record(&ctx, &camera, settings);

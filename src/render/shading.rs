@@ -13,6 +13,7 @@ use crate::camera::PixelScale;
 use crate::emitters::{group_point, SampledLight};
 use crate::interaction::{pane_transmittance, reflect, transmittance, SurfacePoint};
 use crate::mesh::{Interp, RadiosityMesh};
+use crate::radiosity::Parted;
 use crate::sampling::{derive, stratum, uniform2, Stream};
 use crate::scene::{Bsdf, BsdfKind, Glossy, Rgb, Scene};
 use crate::selection::{Pick, Selection};
@@ -49,6 +50,10 @@ pub struct Tracer<'a> {
     /// How large lengths look on the camera's film (None: unknown): camera rays'
     /// footprints, over which mipmapped textures are read, are a pixel's width there.
     pixel_scale: Option<PixelScale>,
+    /// With a solution, the pieces of its mesh that a wall stands on: a hit there
+    /// reads the vertices it sees ([`Parted`]), at the eye, after a mirror or a
+    /// glossy lobe, and at the gather's rays' ends.
+    parted: Option<Parted>,
 }
 
 impl<'a> Tracer<'a> {
@@ -75,6 +80,7 @@ impl<'a> Tracer<'a> {
             gather: None,
             total: None,
             pixel_scale: None,
+            parted: None,
         }
     }
 
@@ -103,7 +109,17 @@ impl<'a> Tracer<'a> {
                 .any(|b| b.kind.glossy().is_some() || b.kind.is_rough_glass())
                 .then(|| selection.solution.total()),
             pixel_scale: None,
+            parted: Some(Parted::new(
+                &selection.solution.mesh,
+                accel,
+                &selection.solution.total(),
+            )),
         }
+    }
+
+    /// The pieces of the solution's mesh that a wall stands on (with a solution).
+    pub fn parted(&self) -> Option<&Parted> {
+        self.parted.as_ref()
     }
 
     /// Gathers at first diffuse hits with `gather` (see [`gather`]).
@@ -220,7 +236,10 @@ impl<'a> Tracer<'a> {
                 Diffuse::Selected { mesh, selection } => {
                     // Diffuse radiance L = B / pi, B interpolated from the mesh
                     // vertices, plus the ray-traced sources of the patch.
-                    let interp = mesh.locate(self.scene, &hit, sp.p, sp.front);
+                    let mut interp = mesh.locate(self.scene, &hit, sp.p, sp.front);
+                    if let Some(parted) = &self.parted {
+                        parted.keep_visible(mesh, self.accel, &mut interp, sp.p);
+                    }
                     let patch = mesh.vertices[interp.vertices[0] as usize].patch;
                     let textured = texture_ratio(bsdf, &kind, mesh, &interp);
                     let mut sum = match (&self.gather, depth) {
@@ -234,6 +253,7 @@ impl<'a> Tracer<'a> {
                                 solution: selection.solution,
                                 lights: &self.sources[..self.scene.lights.len()],
                                 area_samples: self.area_samples,
+                                parted: self.parted.as_ref(),
                             };
                             let e = g.irradiance(&ctx, &sp, patch, seed, counters);
                             let mut sum = (g.kept(&interp) * textured + kind.diffuse_albedo() * e)
@@ -549,7 +569,10 @@ impl<'a> Tracer<'a> {
         }
         let mut l = Vec3::ZERO;
         if kind.has_diffuse() {
-            let interp = mesh.locate(self.scene, &hit, sp.p, sp.front);
+            let mut interp = mesh.locate(self.scene, &hit, sp.p, sp.front);
+            if let Some(parted) = &self.parted {
+                parted.keep_visible(mesh, self.accel, &mut interp, sp.p);
+            }
             let textured = texture_ratio(bsdf, &kind, mesh, &interp);
             l += interp.apply(total) * textured * std::f32::consts::FRAC_1_PI;
         }
