@@ -31,7 +31,7 @@ use rayon::prelude::*;
 
 use crate::accel::Accel;
 use crate::emitters::{light_power, SampledLight};
-use crate::mesh::{Midpoints, RadiosityMesh};
+use crate::mesh::{Midpoints, Piece, RadiosityMesh};
 use crate::progress::Progress;
 use crate::sampling::{derive, Alias, Stream};
 use crate::scene::{mean, Light, Rgb, Scene};
@@ -752,9 +752,14 @@ impl Solver<'_> {
             }
             _ => (light_photons, shot_photons),
         };
-        let (emit_parted, parted_rays) = parted::parted_pieces(&self.mesh, self.accel, &self.unshot, &emit);
-        let (shot_parted, shot_parted_rays) =
-            parted::parted_pieces(&self.mesh, self.accel, &self.shot, &shot_emit);
+        // Which of the pieces photons will leave a wall stands on (none tested for
+        // a kind that sends no photons).
+        let parted = |field: &[Rgb], pieces: &[Piece], photons: u64| match photons {
+            0 => (Vec::new(), 0),
+            _ => parted::parted_pieces(&self.mesh, self.accel, field, pieces),
+        };
+        let (emit_parted, parted_rays) = parted(&self.unshot, &emit, patch_photons);
+        let (shot_parted, shot_parted_rays) = parted(&self.shot, &shot_emit, shot_photons);
         self.stats.rays += parted_rays + shot_parted_rays;
         let tracer = photons::Tracer {
             scene: self.scene,

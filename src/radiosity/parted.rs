@@ -72,13 +72,19 @@ fn set_parted(mesh: &RadiosityMesh, accel: &dyn Accel, field: &[Rgb], set: &Set,
     if vs.len() < 2 || !(hi > CONTRAST * lo) {
         return (false, 0);
     }
-    let up = mesh.vertices[vs[0] as usize].n * lift;
+    let pts: Vec<Vec3> = vs.iter().map(|&v| mesh.vertices[v as usize].p).collect();
+    any_pair_hidden(accel, &pts, mesh.vertices[vs[0] as usize].n * lift)
+}
+
+/// Whether an obstacle stands between some two of the points `pts` (each ray `up`
+/// above them), and the rays cast: the test of a vertex set here and of a patch
+/// shot's cell (`ShootPoint::from_patch_cell`).
+pub(super) fn any_pair_hidden(accel: &dyn Accel, pts: &[Vec3], up: Vec3) -> (bool, u64) {
     let mut rays = 0;
-    for i in 0..vs.len() {
-        for j in i + 1..vs.len() {
+    for i in 0..pts.len() {
+        for j in i + 1..pts.len() {
             rays += 1;
-            let (a, b) = (mesh.vertices[vs[i] as usize].p, mesh.vertices[vs[j] as usize].p);
-            if hidden(accel, a, b, up) {
+            if hidden(accel, pts[i], pts[j], up) {
                 return (true, rays);
             }
         }
@@ -188,28 +194,31 @@ pub struct Parted {
     /// Per vertex, the lift of the parted sets it is in (0: none).
     lift: Vec<f32>,
     /// The field the sets were found with (what [`keep_seen`] weighs the hidden
-    /// vertices' light against).
+    /// vertices' light against, and what the render reads: the total radiosity).
     field: Vec<Rgb>,
 }
 
 impl Parted {
-    /// The parted sets among every patch's pieces by the contrast of `field`.
-    pub fn new(mesh: &RadiosityMesh, accel: &dyn Accel, field: &[Rgb]) -> Self {
+    /// The parted sets among every patch's pieces by the contrast of `field`, which
+    /// it keeps for the reads ([`Parted::field`]).
+    pub fn new(mesh: &RadiosityMesh, accel: &dyn Accel, field: Vec<Rgb>) -> Self {
         let sets: Vec<(Set, f32)> = (0..mesh.patches.len() as u32)
             .into_par_iter()
             .flat_map_iter(|p| mesh.pieces(p).into_iter().map(|e| piece_set(mesh, &e)))
             .collect();
-        let (sets, _) = parted_sets(mesh, accel, field, sets);
+        let (sets, _) = parted_sets(mesh, accel, &field, sets);
         let mut lift = vec![0.0f32; mesh.vertices.len()];
         for (set, &l) in &sets {
             for &v in set.iter().filter(|&&v| v != u32::MAX) {
                 lift[v as usize] = lift[v as usize].max(l);
             }
         }
-        Parted {
-            lift,
-            field: field.to_vec(),
-        }
+        Parted { lift, field }
+    }
+
+    /// The field the sets were found with, per vertex.
+    pub fn field(&self) -> &[Rgb] {
+        &self.field
     }
 
     /// Drops from `w` (the weights at `x`) the vertices an obstacle hides from `x`, as

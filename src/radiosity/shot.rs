@@ -248,24 +248,13 @@ impl ShootPoint {
             return sp;
         }
         let poly = c.polygon();
-        let lift = c.n * (0.1 * vector_area(poly).sqrt()).max(1e-4);
         let centre = |k: usize| {
             let (q, len) = crate::mesh::quarter(poly, k);
-            q[..len].iter().sum::<Vec3>() / len as f32 + lift
+            q[..len].iter().sum::<Vec3>() / len as f32
         };
         let centres = [centre(0), centre(1), centre(2), centre(3)];
-        sp.parted = (0..4).any(|i| {
-            (i + 1..4).any(|j| {
-                let d = centres[j] - centres[i];
-                let ray = crate::accel::Ray {
-                    origin: centres[i],
-                    dir: d,
-                    tmin: 0.0,
-                    tmax: 1.0,
-                };
-                accel.occluded(&ray)
-            })
-        });
+        let lift = c.n * (0.1 * vector_area(poly).sqrt()).max(1e-4);
+        sp.parted = super::parted::any_pair_hidden(accel, &centres, lift).0;
         sp
     }
 

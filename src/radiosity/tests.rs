@@ -223,7 +223,7 @@ fn a_point_beside_a_wall_reads_the_light_of_its_own_side() {
     let (s, sol, _, right) = two_rooms_under_one_floor(&settings(0.4, 16, 100));
     let bvh = Bvh::build(&s);
     let total = sol.total();
-    let parted = Parted::new(&sol.mesh, &bvh, &total);
+    let parted = Parted::new(&sol.mesh, &bvh, total.clone());
     let read = |x: f32| {
         let ray = crate::accel::Ray::new(v(x, 0.5, 0.5), v(0.0, -1.0, 0.0));
         let hit = bvh.intersect(&ray).expect("the floor");

@@ -7,7 +7,7 @@ use super::gather::{self, Gather};
 use super::glass;
 use super::sib::{self, SibQuery};
 use super::Settings;
-use crate::accel::{Accel, Ray};
+use crate::accel::{Accel, Hit, Ray};
 use crate::bsdf::microfacet::Frame;
 use crate::camera::PixelScale;
 use crate::emitters::{group_point, SampledLight};
@@ -44,15 +44,13 @@ pub struct Tracer<'a> {
     diffuse: Diffuse<'a>,
     /// The final gather at first diffuse hits (`--gather`), if on.
     gather: Option<Gather>,
-    /// Per mesh vertex, the solution's total radiosity (what rays drawn from a glossy
-    /// lobe or rough glass read where they land), with a solution.
-    total: Option<Vec<Rgb>>,
     /// How large lengths look on the camera's film (None: unknown): camera rays'
     /// footprints, over which mipmapped textures are read, are a pixel's width there.
     pixel_scale: Option<PixelScale>,
-    /// With a solution, the pieces of its mesh that a wall stands on: a hit there
-    /// reads the vertices it sees ([`Parted`]), at the eye, after a mirror or a
-    /// glossy lobe, and at the gather's rays' ends.
+    /// With a solution: its total radiosity per vertex (what rays drawn from a glossy
+    /// lobe or rough glass read where they land), and the pieces of its mesh that a
+    /// wall stands on, where a hit reads the vertices it sees ([`Parted`]): at the
+    /// eye, after a mirror or a glossy lobe, and at the gather's rays' ends.
     parted: Option<Parted>,
 }
 
@@ -78,7 +76,6 @@ impl<'a> Tracer<'a> {
             max_depth: settings.max_depth,
             diffuse: Diffuse::Direct(picks),
             gather: None,
-            total: None,
             pixel_scale: None,
             parted: None,
         }
@@ -103,16 +100,11 @@ impl<'a> Tracer<'a> {
                 selection,
             },
             gather: None,
-            total: scene
-                .bsdfs
-                .iter()
-                .any(|b| b.kind.glossy().is_some() || b.kind.is_rough_glass())
-                .then(|| selection.solution.total()),
             pixel_scale: None,
             parted: Some(Parted::new(
                 &selection.solution.mesh,
                 accel,
-                &selection.solution.total(),
+                selection.solution.total(),
             )),
         }
     }
@@ -120,6 +112,16 @@ impl<'a> Tracer<'a> {
     /// The pieces of the solution's mesh that a wall stands on (with a solution).
     pub fn parted(&self) -> Option<&Parted> {
         self.parted.as_ref()
+    }
+
+    /// Interpolation weights at a hit on the solution's mesh: the vertices about it
+    /// that it sees, where a wall stands between them ([`Parted`]).
+    fn locate(&self, mesh: &RadiosityMesh, hit: &Hit, sp: &SurfacePoint) -> Interp {
+        let mut w = mesh.locate(self.scene, hit, sp.p, sp.front);
+        if let Some(parted) = &self.parted {
+            parted.keep_visible(mesh, self.accel, &mut w, sp.p);
+        }
+        w
     }
 
     /// Gathers at first diffuse hits with `gather` (see [`gather`]).
@@ -236,10 +238,7 @@ impl<'a> Tracer<'a> {
                 Diffuse::Selected { mesh, selection } => {
                     // Diffuse radiance L = B / pi, B interpolated from the mesh
                     // vertices, plus the ray-traced sources of the patch.
-                    let mut interp = mesh.locate(self.scene, &hit, sp.p, sp.front);
-                    if let Some(parted) = &self.parted {
-                        parted.keep_visible(mesh, self.accel, &mut interp, sp.p);
-                    }
+                    let interp = self.locate(mesh, &hit, &sp);
                     let patch = mesh.vertices[interp.vertices[0] as usize].patch;
                     let textured = texture_ratio(bsdf, &kind, mesh, &interp);
                     let mut sum = match (&self.gather, depth) {
@@ -336,7 +335,7 @@ impl<'a> Tracer<'a> {
         };
         // The lobe's rays see area lights only where they read the solution (else
         // the full shading behind them leaves emitters out): then the two are weighed.
-        let mis = n > 0 && self.total.is_some();
+        let mis = n > 0 && self.parted.is_some();
         let lights = &self.sources[..self.scene.lights.len()];
         let samples = |light: &SampledLight| match (light.is_area(), depth) {
             (false, _) | (true, 1..) => 1,
@@ -477,7 +476,7 @@ impl<'a> Tracer<'a> {
         if !kind.is_rough_glass()
             || depth >= glass::GLASS_SPLIT_DEPTH
             || depth >= self.max_depth
-            || self.total.is_none()
+            || self.parted.is_none()
         {
             return None;
         }
@@ -531,7 +530,9 @@ impl<'a> Tracer<'a> {
         seed: u32,
         counters: &mut Counters,
     ) -> (Rgb, Option<(u32, Rgb, f32)>) {
-        let (Diffuse::Selected { mesh, .. }, Some(total)) = (&self.diffuse, &self.total) else {
+        let (Diffuse::Selected { mesh, .. }, Some(total)) =
+            (&self.diffuse, self.parted.as_ref().map(Parted::field))
+        else {
             return (self.trace(ray, depth, seed, counters, None, false), None);
         };
         let Some(hit) = self.accel.intersect(ray) else {
@@ -569,10 +570,7 @@ impl<'a> Tracer<'a> {
         }
         let mut l = Vec3::ZERO;
         if kind.has_diffuse() {
-            let mut interp = mesh.locate(self.scene, &hit, sp.p, sp.front);
-            if let Some(parted) = &self.parted {
-                parted.keep_visible(mesh, self.accel, &mut interp, sp.p);
-            }
+            let interp = self.locate(mesh, &hit, &sp);
             let textured = texture_ratio(bsdf, &kind, mesh, &interp);
             l += interp.apply(total) * textured * std::f32::consts::FRAC_1_PI;
         }
