@@ -76,8 +76,13 @@ pub const FOLDED_AREA_RAYS: u32 = 16;
 /// noise is fine-grained, where a record's spreads over its neighbourhood (paper
 /// room, 64 rays: FLIP and noise unchanged at a quarter; classroom, where 9 % of the
 /// hits gather anew, 11.7 s -> 7.6 s; the conference room 11.3 s -> 10.4 s at
-/// the same FLIP).
-const ANEW_SHARE: u32 = 4;
+/// the same FLIP). A sixteenth since 2026-11-27 (8 rays at `--gather 128`): a hit
+/// that gathers anew is mostly one of the 4-16 samples of a refined pixel, which
+/// together still cast 32-128 rays. Wooden staircase (15 % of its hits gather anew):
+/// gather rays 7.3 M -> 3.9 M; FLIP against Mitsuba unchanged on it, the classroom,
+/// the paper room, the hall, the Cornell box and the two-room scene, the frosted
+/// room 0.0335 -> 0.0336 (a sixty-fourth, one ray: the staircase 0.0635 -> 0.0636).
+const ANEW_SHARE: u32 = 16;
 /// Mirror reflections a gather ray follows at most.
 const MAX_MIRRORS: u32 = 4;
 /// A record serves a point within this share of its radius (Ward's accuracy `a`,
