@@ -42,32 +42,23 @@ pub struct Facet {
 
 impl Facet {
     /// What a ray leaving along `wi` (unit) weighs, beside its split's weight, for a
-    /// ray that arrived along `-wo`: 1 on smooth glass; on rough glass, with facets
-    /// drawn by D(m) cos(m), |wo.m| G(wo, wi, m) / (|wo.n| |m.n|) (Walter et al.
-    /// 2007, eq. 38 and 41, as Mitsuba 3's `roughdielectric` without visible-normal
-    /// sampling).
+    /// ray that arrived along `-wo`: 1 on smooth glass; on rough glass the facet's
+    /// [`Microfacet::weight`] (Walter et al. 2007, eq. 41; GGX's facets drawn as `wo`
+    /// sees them, as Mitsuba 3's `roughdielectric` does by default).
     pub fn weight(&self, wo: Vec3, wi: Vec3) -> f32 {
         let Some(d) = self.rough else {
             return 1.0;
         };
         let f = Frame::new(self.n);
-        let (o, i, m) = (f.local(wo), f.local(wi), f.local(self.m));
-        if !(o.z > 0.0 && m.z > 0.0 && o.dot(m) > 0.0) {
-            return 0.0;
-        }
-        let w = o.dot(m) * d.g(o, i, m) / (o.z * m.z);
-        if w.is_finite() {
-            w
-        } else {
-            0.0
-        }
+        d.weight(f.local(wo), f.local(wi), f.local(self.m))
     }
 }
 
 impl BsdfKind {
     /// The facet a ray arriving along `-wo` meets on glass of shading normal `ns`
-    /// (unit, outward): on rough glass a microfacet normal drawn from `u` with density
-    /// D(m) cos(m) about the normal on the ray's side, else that normal; with the
+    /// (unit, outward): on rough glass a microfacet normal drawn from `u` by
+    /// [`Microfacet::sample_visible`] about the normal on the ray's side, else that
+    /// normal; with the
     /// split about it. `None` if the material is not glass, or the facet drawn faces
     /// away from the ray.
     pub fn facet(&self, wo: Vec3, ns: Vec3, u: Vec2) -> Option<Facet> {
@@ -78,7 +69,8 @@ impl BsdfKind {
         let n = if outside { ns } else { -ns };
         let (m, rough) = match rough {
             Some(d) if !thin => {
-                let m = Frame::new(n).world(d.sample(u)).normalize();
+                let frame = Frame::new(n);
+                let m = frame.world(d.sample_visible(frame.local(wo), u)).normalize();
                 if !(wo.dot(m) > 0.0) {
                     return None;
                 }
@@ -94,8 +86,9 @@ impl BsdfKind {
     /// shading normal `ns` (unit, outward), and the density per steradian with which
     /// [`Self::facet`] sends a ray along `wi` (its reflection or its transmission, as
     /// `wi` lies): Walter et al. (2007), eq. 20 and 21, the transmission for radiance
-    /// (the squared index ratio divided out), with the densities of eq. 14 and 17.
-    /// `None` if the material is not rough glass.
+    /// (the squared index ratio divided out), with the densities of eq. 14 and 17
+    /// over the facets' [`Microfacet::pdf_m`]. `None` if the material is not rough
+    /// glass.
     pub fn rough_glass_eval(&self, wo: Vec3, wi: Vec3, ns: Vec3) -> Option<(Rgb, f32)> {
         let BsdfKind::Dielectric {
             eta,
@@ -124,7 +117,7 @@ impl BsdfKind {
             }
             let dh = d.d(h);
             let f = fresnel_dielectric(oh, eta) * dh * d.g(o, i, h) / (4.0 * o.z * i.z);
-            (*specular_reflectance * f, dh * h.z / (4.0 * oh))
+            (*specular_reflectance * f, d.pdf_m(o, h) / (4.0 * oh))
         } else {
             let h = (o + i * eta).normalize();
             let h = if h.z < 0.0 { -h } else { h };
@@ -138,7 +131,7 @@ impl BsdfKind {
                 / (-i.z * o.z * den * den);
             (
                 *specular_transmittance * f,
-                dh * h.z * eta * eta * ih.abs() / (den * den),
+                d.pdf_m(o, h) * eta * eta * ih.abs() / (den * den),
             )
         };
         if value.is_finite() && pdf.is_finite() {

@@ -55,17 +55,31 @@ impl Microfacet {
         self.g1(wi, m) * self.g1(wo, m)
     }
 
-    /// A normal drawn with density `d(m) cos(m)` from `u` in [0, 1)^2: a slope of the
-    /// unit-roughness distribution, stretched by the roughness.
-    pub fn sample(&self, u: Vec2) -> Vec3 {
-        let r2 = if self.beckmann {
-            -(1.0 - u.x).max(1e-12).ln()
+    /// The density per steradian of the normal `m` that [`Self::sample_visible`]
+    /// draws for `wo` (local frame): `G1(wo, m) (wo.m) d(m) / wo.z`.
+    pub fn pdf_m(&self, wo: Vec3, m: Vec3) -> f32 {
+        if wo.z <= 0.0 {
+            return 0.0;
+        }
+        self.g1(wo, m) * wo.dot(m).max(0.0) * self.d(m) / wo.z
+    }
+
+    /// What a direction `wi` leaving (by reflection or transmission) about a normal
+    /// `m` drawn by [`Self::sample_visible`] for `wo` weighs, Fresnel term aside:
+    /// `|wo.m| G d(m) / (wo.z pdf_m)` (Walter et al. 2007, eq. 41), that is
+    /// `G(wo, wi) / G1(wo)`, at most one. Normals drawn by `d(m) cos(m)` instead
+    /// weigh `|wo.m| G / (wo.z m.z)`, which grows without bound as `wo` turns
+    /// grazing: a frosted ball's rim, a metal seen edge on, sparkled.
+    pub fn weight(&self, wo: Vec3, wi: Vec3, m: Vec3) -> f32 {
+        if !(wo.z > 0.0 && m.z > 0.0 && wo.dot(m) > 0.0) {
+            return 0.0;
+        }
+        let g1 = self.g1(wo, m);
+        if g1 > 0.0 {
+            self.g(wo, wi, m) / g1
         } else {
-            u.x / (1.0 - u.x).max(1e-12)
-        };
-        let r = r2.sqrt();
-        let phi = 2.0 * PI * u.y;
-        Vec3::new(-self.alpha_u * r * phi.cos(), -self.alpha_v * r * phi.sin(), 1.0).normalize()
+            0.0
+        }
     }
 }
 
@@ -170,7 +184,7 @@ impl Glossy {
             return 0.0;
         }
         let m = (wi + wo).normalize();
-        self.distribution.d(m) * m.z / (4.0 * wo.dot(m).abs())
+        self.distribution.pdf_m(wo, m) / (4.0 * wo.dot(m).abs())
     }
 
     /// A direction `wi` drawn for viewing direction `wo` (local frame) from `u`, with
@@ -179,7 +193,7 @@ impl Glossy {
         if wo.z <= 0.0 {
             return None;
         }
-        let m = self.distribution.sample(u);
+        let m = self.distribution.sample_visible(wo, u);
         let wi = 2.0 * wo.dot(m) * m - wo;
         let pdf = self.pdf(wo, wi);
         if !(wi.z > 0.0 && pdf > 0.0) {
@@ -287,6 +301,39 @@ mod tests {
     /// the reflected fraction is at most 1 and, for a smooth lobe seen from above,
     /// nearly 1 (single scattering loses a little at grazing angles and roughness);
     /// the estimate by sampling equals a plain quadrature over the hemisphere.
+    /// Normals drawn as the view sees them weigh at most one with a Fresnel of 1,
+    /// also seen at grazing angles, where drawing them by d(m) cos(m) gave weights
+    /// of several (the sparkles of a frosted ball's rim); and their mean is the lobe's
+    /// albedo, which the quadrature in `sampling_weights_and_the_white_furnace`
+    /// checks.
+    #[test]
+    fn visible_normals_weigh_at_most_one() {
+        for beckmann in [false, true] {
+            let lobe = Glossy {
+                distribution: Microfacet {
+                    alpha_u: 0.4,
+                    alpha_v: 0.4,
+                    beckmann,
+                },
+                fresnel: Fresnel::Schlick { f0: Vec3::ONE },
+                scale: Vec3::ONE,
+            };
+            let wo = dir(1.4, 0.3);
+            let (mut most, mut drawn) = (0.0f32, 0);
+            for i in 0..64 {
+                for j in 0..64 {
+                    let u = Vec2::new((i as f32 + 0.5) / 64.0, (j as f32 + 0.5) / 64.0);
+                    if let Some((_, w)) = lobe.sample(wo, u) {
+                        most = most.max(w.x);
+                        drawn += 1;
+                    }
+                }
+            }
+            assert!(drawn > 2000, "{beckmann}: {drawn}");
+            assert!(most <= 1.0 + 1e-3, "{beckmann}: {most}");
+        }
+    }
+
     #[test]
     fn sampling_weights_and_the_white_furnace() {
         for beckmann in [false, true] {

@@ -895,7 +895,8 @@ mod tests {
             );
             assert!(expect.max_element() > 0.01);
             assert_eq!(c.shadow_rays, 1);
-            assert_eq!(c.reflection_rays, u64::from(GLOSSY_RAYS));
+            // A drawn ray that would leave below the floor is not cast.
+            assert!((1..=u64::from(GLOSSY_RAYS)).contains(&c.reflection_rays));
         }
     }
 
