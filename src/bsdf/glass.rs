@@ -43,8 +43,8 @@ pub struct Facet {
 impl Facet {
     /// What a ray leaving along `wi` (unit) weighs, beside its split's weight, for a
     /// ray that arrived along `-wo`: 1 on smooth glass; on rough glass the facet's
-    /// [`Microfacet::weight`] (Walter et al. 2007, eq. 41; GGX's facets drawn as `wo`
-    /// sees them, as Mitsuba 3's `roughdielectric` does by default).
+    /// [`Microfacet::weight`] (Walter et al. 2007, eq. 41; facets drawn as `wo` sees
+    /// them, as Mitsuba 3's `roughdielectric` does by default).
     pub fn weight(&self, wo: Vec3, wi: Vec3) -> f32 {
         let Some(d) = self.rough else {
             return 1.0;
@@ -58,9 +58,8 @@ impl BsdfKind {
     /// The facet a ray arriving along `-wo` meets on glass of shading normal `ns`
     /// (unit, outward): on rough glass a microfacet normal drawn from `u` by
     /// [`Microfacet::sample_visible`] about the normal on the ray's side, else that
-    /// normal; with the
-    /// split about it. `None` if the material is not glass, or the facet drawn faces
-    /// away from the ray.
+    /// normal; with the split about it. `None` if the material is not glass, or the
+    /// facet drawn faces away from the ray.
     pub fn facet(&self, wo: Vec3, ns: Vec3, u: Vec2) -> Option<Facet> {
         let BsdfKind::Dielectric { rough, thin, .. } = self else {
             return None;

@@ -81,7 +81,7 @@ pub const FOLDED_AREA_RAYS: u32 = 16;
 /// together still cast 32-128 rays. Wooden staircase (15 % of its hits gather anew):
 /// gather rays 7.3 M -> 3.9 M; FLIP against Mitsuba unchanged on it, the classroom,
 /// the paper room, the hall, the Cornell box and the two-room scene, the frosted
-/// room 0.0335 -> 0.0336 (a sixty-fourth, one ray: the staircase 0.0635 -> 0.0636).
+/// room 0.0335 -> 0.0336 (one ray, a 128th: the staircase 0.0635 -> 0.0636).
 const ANEW_SHARE: u32 = 16;
 /// Mirror reflections a gather ray follows at most.
 const MAX_MIRRORS: u32 = 4;
