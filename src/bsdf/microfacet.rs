@@ -296,6 +296,23 @@ mod tests {
         }
     }
 
+    /// The fraction of light from `wo` that `lobe` reflects (first channel), by a
+    /// midpoint quadrature in (cos theta, phi) over the hemisphere.
+    fn reflected_by_quadrature(lobe: &Glossy, wo: Vec3) -> f32 {
+        let n = 600;
+        let mut q = 0.0;
+        for i in 0..n {
+            for j in 0..n {
+                let ct = (i as f32 + 0.5) / n as f32;
+                let phi = 2.0 * PI * (j as f32 + 0.5) / n as f32;
+                let st = (1.0 - ct * ct).sqrt();
+                let wi = Vec3::new(st * phi.cos(), st * phi.sin(), ct);
+                q += lobe.eval(wi, wo).x * ct;
+            }
+        }
+        q * 2.0 * PI / (n * n) as f32
+    }
+
     /// Seen at a grazing angle (80 degrees), the normals drawn as the view sees them
     /// weigh at most one with a Fresnel of 1, where normals drawn by d(m) cos(m)
     /// carried |wo.m| / (wo.z m.z), up to about 1 / wo.z = 5.8 (the sparkles of a
@@ -329,17 +346,7 @@ mod tests {
             assert!(drawn > 2000, "{beckmann}: {drawn}");
             assert!(most <= 1.0 + 1e-3, "{beckmann}: {most}");
             let mean = sum / (64 * 64) as f32;
-            let n = 600;
-            let mut q = 0.0;
-            for i in 0..n {
-                for j in 0..n {
-                    let ct = (i as f32 + 0.5) / n as f32;
-                    let phi = 2.0 * PI * (j as f32 + 0.5) / n as f32;
-                    let st = (1.0 - ct * ct).sqrt();
-                    q += lobe.eval(Vec3::new(st * phi.cos(), st * phi.sin(), ct), wo).x * ct;
-                }
-            }
-            q *= 2.0 * PI / (n * n) as f32;
+            let q = reflected_by_quadrature(&lobe, wo);
             assert!((mean - q).abs() < 0.01, "{beckmann}: {mean} vs {q}");
         }
     }
@@ -372,19 +379,7 @@ mod tests {
                     if alpha <= 0.05 && theta < 1.0 {
                         assert!(a > 0.98, "{beckmann} {alpha} {theta}: {a}");
                     }
-                    // Quadrature in (cos theta, phi) over the hemisphere.
-                    let n = 600;
-                    let mut q = 0.0;
-                    for i in 0..n {
-                        for j in 0..n {
-                            let ct = (i as f32 + 0.5) / n as f32;
-                            let phi = 2.0 * PI * (j as f32 + 0.5) / n as f32;
-                            let st = (1.0 - ct * ct).sqrt();
-                            let wi = Vec3::new(st * phi.cos(), st * phi.sin(), ct);
-                            q += lobe.eval(wi, wo).x * ct;
-                        }
-                    }
-                    q *= 2.0 * PI / (n * n) as f32;
+                    let q = reflected_by_quadrature(&lobe, wo);
                     if alpha >= 0.3 {
                         assert!((q - a).abs() < 0.01, "{beckmann} {alpha} {theta}: {q} vs {a}");
                     }
