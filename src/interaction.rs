@@ -81,6 +81,41 @@ impl SurfacePoint {
         scene.shapes[self.shape as usize].mesh.uv_at(self.tri, self.bary)
     }
 
+    /// The direction of increasing u here (dp/du), which orients an anisotropic
+    /// lobe as Mitsuba 3 does: a mesh's from its triangle's (u, v) where it has them
+    /// and they span the triangle, an exact sphere's or disk's from its
+    /// parameterisation ([`crate::geometry::Quadric::dpdu`]), else the first axis of
+    /// the branchless frame (Duff et al. 2017, Mitsuba's `coordinate_system`) round
+    /// the surface's own (unflipped) normal. Not normalised.
+    pub fn dpdu(&self, scene: &Scene) -> Vec3 {
+        let mesh = &scene.shapes[self.shape as usize].mesh;
+        let n = if self.front { self.ng } else { -self.ng };
+        let fallback = || n.any_orthonormal_pair().0;
+        if let Some(q) = &mesh.quadric {
+            return q.dpdu(self.p).unwrap_or_else(fallback);
+        }
+        let Some(&[i, j, k]) = mesh.indices.get(self.tri as usize) else {
+            return fallback();
+        };
+        let (Some(uv0), Some(uv1), Some(uv2)) = (
+            mesh.uvs.get(i as usize),
+            mesh.uvs.get(j as usize),
+            mesh.uvs.get(k as usize),
+        ) else {
+            return fallback();
+        };
+        let [a, b, c] = [i, j, k].map(|x| mesh.positions[x as usize]);
+        let (dp0, dp1) = (b - a, c - a);
+        let (duv0, duv1) = (*uv1 - *uv0, *uv2 - *uv0);
+        let det = duv0.x * duv1.y - duv0.y * duv1.x;
+        let d = (dp0 * duv1.y - dp1 * duv0.y) / det;
+        if det != 0.0 && d.is_finite() && d.length_squared() > 0.0 {
+            d
+        } else {
+            fallback()
+        }
+    }
+
     /// The material here: the shape's BSDF, and its reflection model with its
     /// textures looked up at this point's (u, v) (the model itself when untextured),
     /// over its footprint.
@@ -514,5 +549,52 @@ mod tests {
                 sp.ns
             );
         }
+    }
+
+    /// dp/du as Mitsuba 3 gives it: a rectangle's along its local x (turned here a
+    /// quarter turn about its normal: world y), a sphere's round its axis, a disk's
+    /// outward from its centre, and on a mesh without (u, v) the first axis of the
+    /// branchless frame round the face normal ((1, 0, 0) for +z).
+    #[test]
+    fn dpdu_follows_each_shapes_parameterisation() {
+        let xml = r#"<scene version="3.0.0">
+            <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
+            <emitter type="constant"/>
+            <shape type="rectangle"><transform name="to_world"><rotate z="1" angle="90"/><translate z="-1"/></transform></shape>
+            <shape type="sphere"><point name="center" x="5" y="0" z="0"/><float name="radius" value="1"/></shape>
+            <shape type="disk"><transform name="to_world"><translate x="-5"/></transform></shape>
+        </scene>"#;
+        let scene = crate::scene::xml::load_str(std::path::Path::new("t.xml"), xml, &[])
+            .unwrap()
+            .scene;
+        let bvh = crate::accel::Bvh::build(&scene);
+        let at = |origin: Vec3, dir: Vec3| {
+            let ray = Ray::new(origin, dir);
+            let hit = bvh.intersect(&ray).expect("a hit");
+            SurfacePoint::new(&scene, &ray, &hit).dpdu(&scene).normalize()
+        };
+        let near = |a: Vec3, b: Vec3| (a - b).length() < 1e-3;
+        let d = at(Vec3::new(0.3, 0.2, 5.0), Vec3::NEG_Z);
+        assert!(near(d, Vec3::Y), "rectangle {d}");
+        // The sphere's point (5, -1, 0): round its z axis, (-y, x, 0) = (1, 0, 0).
+        let d = at(Vec3::new(5.0, -5.0, 0.0), Vec3::Y);
+        assert!(near(d, Vec3::X), "sphere {d}");
+        // The disk's point (-5, 0.5, 0): outward, +y.
+        let d = at(Vec3::new(-5.0, 0.5, 3.0), Vec3::NEG_Z);
+        assert!(near(d, Vec3::Y), "disk {d}");
+        // A mesh without (u, v), facing +z.
+        let quad = crate::testutil::quad([
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(1.0, -1.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(-1.0, 1.0, 0.0),
+        ]);
+        assert!(quad.uvs.is_empty());
+        let s = crate::testutil::scene(vec![(quad, Vec3::splat(0.5))], Vec::new(), &[]);
+        let bvh = crate::accel::Bvh::build(&s);
+        let ray = Ray::new(Vec3::new(0.2, 0.1, 1.0), Vec3::NEG_Z);
+        let hit = bvh.intersect(&ray).expect("a hit");
+        let d = SurfacePoint::new(&s, &ray, &hit).dpdu(&s).normalize();
+        assert!(near(d, Vec3::X), "no uv {d}");
     }
 }

@@ -128,8 +128,8 @@ impl Fresnel {
     }
 }
 
-/// The local frame of a lobe: a unit normal (+z) and two tangents about it (chosen
-/// from the normal alone: radtrace's surfaces carry no tangents).
+/// The local frame of a lobe: a unit normal (+z) and two tangents about it, the first
+/// (+x) the direction in which an anisotropic lobe's roughness is `alpha_u`.
 #[derive(Debug, Clone, Copy)]
 pub struct Frame {
     t: Vec3,
@@ -142,6 +142,29 @@ impl Frame {
     pub fn new(n: Vec3) -> Self {
         let (t, b) = n.any_orthonormal_pair();
         Frame { t, b, n }
+    }
+
+    /// Mitsuba 3's shading frame round unit normal `n`: the first tangent is `dpdu`
+    /// made normal to `n` (Gram-Schmidt), the second `n x` that; [`Frame::new`]'s
+    /// where `dpdu` lies along `n` or is not finite.
+    pub fn with_tangent(n: Vec3, dpdu: Vec3) -> Self {
+        let s = dpdu - n * n.dot(dpdu);
+        match s.try_normalize() {
+            Some(t) => Frame { t, b: n.cross(t), n },
+            None => Self::new(n),
+        }
+    }
+
+    /// The frame of `lobe` round unit shading normal `n`: [`Frame::with_tangent`]
+    /// where the lobe is anisotropic, its tangent `dpdu()` (dp/du at the point);
+    /// [`Frame::new`]'s otherwise, which an isotropic lobe cannot tell from any other
+    /// (and which keeps its sampled directions as they were).
+    pub fn of_lobe(lobe: &Glossy, n: Vec3, dpdu: impl FnOnce() -> Vec3) -> Self {
+        if lobe.distribution.alpha_u == lobe.distribution.alpha_v {
+            Self::new(n)
+        } else {
+            Self::with_tangent(n, dpdu())
+        }
     }
 
     /// World direction `d` in the frame.
@@ -157,9 +180,9 @@ impl Frame {
 
 impl Glossy {
     /// [`Self::sample`] in world directions: a direction drawn for viewing direction
-    /// `wo` at a surface of shading normal `n`, with its weight.
-    pub fn sample_around(&self, n: Vec3, wo: Vec3, u: Vec2) -> Option<(Vec3, Rgb)> {
-        let frame = Frame::new(n);
+    /// `wo` at a surface whose shading frame is `frame` ([`Frame::of_lobe`]), with
+    /// its weight.
+    pub fn sample_in(&self, frame: &Frame, wo: Vec3, u: Vec2) -> Option<(Vec3, Rgb)> {
         let (wi, w) = self.sample(frame.local(wo), u)?;
         Some((frame.world(wi), w))
     }
@@ -386,5 +409,52 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Mitsuba's shading frame: the first tangent is dp/du made normal to the normal,
+    /// the second their cross product; an anisotropic lobe's `alpha_u` lies along
+    /// dp/du, so light reflected along it is held to the sharp side of the lobe and
+    /// light reflected across it spreads; an isotropic lobe keeps the frame chosen
+    /// from the normal alone.
+    #[test]
+    fn an_anisotropic_lobe_lies_along_dpdu() {
+        let f = Frame::with_tangent(Vec3::Z, Vec3::new(1.0, 1.0, 1.0));
+        let s = Vec3::new(1.0, 1.0, 0.0).normalize();
+        assert!((f.world(Vec3::X) - s).length() < 1e-6, "{:?}", f.world(Vec3::X));
+        assert!((f.world(Vec3::Y) - Vec3::new(-1.0, 1.0, 0.0).normalize()).length() < 1e-6);
+        assert!((f.world(Vec3::Z) - Vec3::Z).length() < 1e-6);
+        // dp/du along the normal: the frame from the normal alone.
+        let g = Frame::with_tangent(Vec3::Z, Vec3::Z * 2.0);
+        assert!((g.world(Vec3::X) - Frame::new(Vec3::Z).world(Vec3::X)).length() < 1e-6);
+        let lobe = |au: f32, av: f32| Glossy {
+            distribution: Microfacet {
+                alpha_u: au,
+                alpha_v: av,
+                beckmann: false,
+            },
+            fresnel: Fresnel::Schlick { f0: Vec3::ONE },
+            scale: Vec3::ONE,
+        };
+        // dp/du along world y; seen from the normal, light 20 degrees off it along y
+        // (the u axis, alpha 0.05) and along x (the v axis, alpha 0.5).
+        let brushed = lobe(0.05, 0.5);
+        let frame = Frame::of_lobe(&brushed, Vec3::Z, || Vec3::Y);
+        let wo = Vec3::Z;
+        let tilt = 20f32.to_radians();
+        let along_u = Vec3::new(0.0, tilt.sin(), tilt.cos());
+        let along_v = Vec3::new(tilt.sin(), 0.0, tilt.cos());
+        let f_u = brushed.eval(frame.local(along_u), frame.local(wo)).x;
+        let f_v = brushed.eval(frame.local(along_v), frame.local(wo)).x;
+        // GGX at the half vector 10 degrees off: D(alpha 0.05) is 1e-3 of D(0.5).
+        assert!(f_u < 0.01 * f_v, "{f_u} vs {f_v}");
+        // Turning dp/du a quarter turn swaps them.
+        let turned = Frame::of_lobe(&brushed, Vec3::Z, || Vec3::X);
+        let g_u = brushed.eval(turned.local(along_v), turned.local(wo)).x;
+        assert!((g_u - f_u).abs() <= 1e-6 * f_u.max(1e-12), "{g_u} vs {f_u}");
+        // An isotropic lobe ignores dp/du.
+        let round = lobe(0.2, 0.2);
+        let a = Frame::of_lobe(&round, Vec3::Z, || Vec3::Y);
+        let b = Frame::new(Vec3::Z);
+        assert!((a.world(Vec3::X) - b.world(Vec3::X)).length() < 1e-7);
     }
 }

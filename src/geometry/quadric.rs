@@ -296,6 +296,23 @@ impl Quadric {
 
     /// The surface point nearest to `p` and the unit normal there (see
     /// [`Self::normal`]): for a point a ray found, the exact point.
+    /// The direction of increasing u at `p` (on or near the surface), as Mitsuba 3's
+    /// sphere and disk give it: round the sphere's axis (`(-y, x, 0)` in object
+    /// space), out from the disk's centre; `None` on the sphere's axis, where there is
+    /// none. Its length is not meaningful.
+    pub fn dpdu(&self, p: Vec3) -> Option<Vec3> {
+        let l = self.local_map().transform_point3(p.as_dvec3());
+        let r = l.truncate().length();
+        let local = match self.kind {
+            QuadricKind::Sphere if r > 0.0 => DVec3::new(-l.y, l.x, 0.0),
+            QuadricKind::Sphere => return None,
+            QuadricKind::Disk if r > 0.0 => DVec3::new(l.x / r, l.y / r, 0.0),
+            QuadricKind::Disk => DVec3::X,
+        };
+        let d = self.world().transform_vector3(local).as_vec3();
+        (d.length_squared() > 0.0 && d.is_finite()).then_some(d)
+    }
+
     pub fn project(&self, p: Vec3) -> (Vec3, Vec3) {
         let mut l = self.local_map().transform_point3(p.as_dvec3());
         let n = match self.kind {

@@ -20,6 +20,7 @@ use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
 use crate::accel::{Accel, Ray};
+use crate::bsdf::microfacet::Frame;
 use crate::emitters::{Emission, SampledLight};
 use crate::interaction::{offset_from, reflect, SurfacePoint, PARALLEL_FACES};
 use crate::mesh::{point_in_polygon, Piece, RadiosityMesh};
@@ -364,7 +365,9 @@ impl<'a> Tracer<'a> {
                 }
                 source = None;
             } else if u < pd + ps + pg {
-                let Some((d, w)) = glossy.and_then(|g| glossy_bounce(&g, &sp, dir, Vec2::new(a, b))) else {
+                let Some((d, w)) =
+                    glossy.and_then(|g| glossy_bounce(self.scene, &g, &sp, dir, Vec2::new(a, b)))
+                else {
                     return;
                 };
                 dir = d;
@@ -927,8 +930,9 @@ pub fn specular_area_share(scene: &Scene) -> f64 {
 /// A photon arriving along `dir` at `sp` reflected by a glossy lobe drawn from `u`:
 /// its new direction and the lobe's weight (`eval * cos / pdf`); `None` if it leaves
 /// below the surface.
-fn glossy_bounce(lobe: &Glossy, sp: &SurfacePoint, dir: Vec3, u: Vec2) -> Option<(Vec3, Rgb)> {
-    let (wi, w) = lobe.sample_around(sp.ns, -dir, u)?;
+fn glossy_bounce(scene: &Scene, lobe: &Glossy, sp: &SurfacePoint, dir: Vec3, u: Vec2) -> Option<(Vec3, Rgb)> {
+    let frame = Frame::of_lobe(lobe, sp.ns, || sp.dpdu(scene));
+    let (wi, w) = lobe.sample_in(&frame, -dir, u)?;
     reflects(wi, sp.ng).then_some((wi, w))
 }
 

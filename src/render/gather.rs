@@ -51,6 +51,7 @@ use rayon::prelude::*;
 
 use super::counters::Counters;
 use crate::accel::Accel;
+use crate::bsdf::microfacet::Frame;
 use crate::camera::Camera;
 use crate::emitters::{group_point, SampledLight};
 use crate::interaction::{reflect, transmittance, SurfacePoint};
@@ -559,7 +560,8 @@ impl Gather {
                         derive(derive(seed, Stream::Sample(k)), Stream::Reflection),
                         bounce,
                     );
-                    match lobe.sample_around(y.ns, -ray.dir, Vec2::new(u, v)) {
+                    let frame = Frame::of_lobe(&lobe, y.ns, || y.dpdu(ctx.scene));
+                    match lobe.sample_in(&frame, -ray.dir, Vec2::new(u, v)) {
                         Some(s) => s,
                         None => break,
                     }

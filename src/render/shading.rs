@@ -326,7 +326,7 @@ impl<'a> Tracer<'a> {
         seed: u32,
         counters: &mut Counters,
     ) -> Rgb {
-        let frame = Frame::new(sp.ns);
+        let frame = Frame::of_lobe(lobe, sp.ns, || sp.dpdu(self.scene));
         let wo_l = frame.local(wo);
         let n = match depth {
             0 => GLOSSY_RAYS,

@@ -93,7 +93,17 @@ impl Loader {
             }
             "dielectric" | "thindielectric" | "roughdielectric" => {
                 let rough = if ty == "roughdielectric" {
-                    Some(self.microfacet(s, c, &obj)?)
+                    let d = self.microfacet(s, &obj)?;
+                    if d.alpha_u != d.alpha_v {
+                        self.warn(
+                            s,
+                            c,
+                            "anisotropic roughness on rough glass: its lobe's axes are \
+                             oriented arbitrarily about the normal (radtrace orients them by \
+                             the surface's dp/du only on glossy reflection)",
+                        );
+                    }
+                    Some(d)
                 } else {
                     None
                 };
@@ -364,7 +374,7 @@ impl Loader {
     /// Fresnel term from `eta`/`k` or a named `material`, `specular_reflectance`;
     /// Mitsuba 0.6's `ext_eta` divides both).
     fn rough_conductor(&mut self, s: Src, c: Node, obj: &Obj) -> Result<Glossy> {
-        let distribution = self.microfacet(s, c, obj)?;
+        let distribution = self.microfacet(s, obj)?;
         let scale = obj.reflectance("specular_reflectance", 1.0)?;
         let fresnel = Self::conductor_fresnel(s, c, obj)?;
         Ok(Glossy {
@@ -375,23 +385,16 @@ impl Loader {
     }
 
     /// The microfacet distribution of `roughconductor` and `roughdielectric`
-    /// (`distribution`, `alpha` or `alpha_u`/`alpha_v`, 0.1 by default); anisotropic
-    /// roughness warns.
-    fn microfacet(&mut self, s: Src, c: Node, obj: &Obj) -> Result<Microfacet> {
+    /// (`distribution`, `alpha` or `alpha_u`/`alpha_v`, 0.1 by default). An
+    /// anisotropic lobe's `alpha_u` lies along the surface's dp/du, as in Mitsuba
+    /// ([`crate::interaction::SurfacePoint::dpdu`]).
+    fn microfacet(&mut self, s: Src, obj: &Obj) -> Result<Microfacet> {
         self.roughness_maps(s, obj, &ALPHAS);
         let (beckmann, [alpha, u, v]) = distribution(obj)?;
         let (alpha_u, alpha_v) = match alpha {
             Some(a) => (a, a),
             None => (u.unwrap_or(0.1), v.unwrap_or(0.1)),
         };
-        if alpha_u != alpha_v {
-            self.warn(
-                s,
-                c,
-                "anisotropic roughness: radtrace has no surface tangents, so the lobe's \
-                 axes are oriented arbitrarily about the normal",
-            );
-        }
         Ok(Microfacet {
             alpha_u,
             alpha_v,
@@ -483,14 +486,6 @@ impl Loader {
                      lobe are)",
                     ignored.join(", ")
                 ),
-            );
-        }
-        if anisotropic > 0.0 {
-            self.warn(
-                s,
-                c,
-                "anisotropic roughness: radtrace has no surface tangents, so the lobe's \
-                 axes are oriented arbitrarily about the normal",
             );
         }
         // Mitsuba's principled: alpha = roughness^2 (at least 1e-3), stretched by the

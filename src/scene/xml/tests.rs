@@ -2046,7 +2046,8 @@ fn bad_textures_are_errors_naming_file_and_line() {
 }
 
 /// A rough conductor's bad parameters: one error naming the file, the line and the
-/// parameter; anisotropic roughness is a warning (no tangents to follow).
+/// parameter; anisotropic roughness is read without a warning (its axes follow the
+/// surface's dp/du), and on rough glass, whose axes do not, with one.
 #[test]
 fn bad_rough_conductors_are_errors_naming_the_parameter() {
     for (param, want) in [
@@ -2082,7 +2083,18 @@ fn bad_rough_conductors_are_errors_naming_the_parameter() {
         r#"<float name="alpha_v" value="0.3"/></bsdf></shape>"#,
     ]);
     assert!(
-        l.warnings.iter().any(|w| w.contains("anisotropic")),
+        !l.warnings.iter().any(|w| w.contains("anisotropic")),
+        "{:?}",
+        l.warnings
+    );
+    let l = ok(&[
+        r#"<shape type="cube"><bsdf type="roughdielectric"><float name="alpha_u" value="0.1"/>"#,
+        r#"<float name="alpha_v" value="0.3"/></bsdf></shape>"#,
+    ]);
+    assert!(
+        l.warnings
+            .iter()
+            .any(|w| w.contains("anisotropic roughness on rough glass")),
         "{:?}",
         l.warnings
     );
