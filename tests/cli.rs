@@ -469,6 +469,7 @@ fn the_repository_scenes_load_and_render_small() {
         ("scenes/paper-room/paper-room.xml", vec!["--view", "1"]),
         ("scenes/hall/hall.xml", vec![]),
         ("scenes/glass-bulb/glass-bulb.xml", vec![]),
+        ("scenes/brushed/brushed.xml", vec![]),
     ] {
         let out = d.path().join("r.exr");
         let (scene_path, outs) = (repo(scene), s(&out));
