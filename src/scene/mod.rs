@@ -2,6 +2,7 @@
 //!
 //! A [`Scene`] is immutable once loaded (see [`xml::load`]); every later stage reads it.
 
+pub mod hdr_sun;
 pub mod spectrum;
 pub mod sunsky;
 pub mod texture;

@@ -165,6 +165,12 @@ impl Loader {
             .push(format!("{}:{}: {msg}", s.path.display(), s.pos(n)));
     }
 
+    /// A notice (not a warning: nothing is left out) naming the file and line.
+    pub(super) fn note(&mut self, s: Src, n: Node, msg: impl Display) {
+        self.notes
+            .push(format!("{}:{}: {msg}", s.path.display(), s.pos(n)));
+    }
+
     /// Attribute `name` with `$parameters` substituted.
     pub(super) fn attr(&self, s: Src, n: Node, name: &str) -> Result<Option<String>> {
         let Some(raw) = n.attribute(name) else {

@@ -149,6 +149,9 @@ impl Loader {
                     ));
                 }
                 let obj = self.collect(s, c, format!("emitter '{ty}'"))?;
+                // A sky photograph's sun, split off: towards it (map frame), its
+                // irradiance, solid angle and share of the map's light.
+                let mut sun = None;
                 let (radiance, texture) = if ty == "constant" {
                     (obj.emission("radiance")?, None)
                 } else {
@@ -172,19 +175,58 @@ impl Loader {
                             ),
                         ));
                     }
+                    // A sky photograph's sun becomes a directional light beside it
+                    // (see `hdr_sun`), unless the scene already has a sun.
+                    let split = if self.scene.sun_disk.is_none() {
+                        crate::scene::hdr_sun::split(&t)
+                    } else {
+                        None
+                    };
+                    let t = match split {
+                        Some(sp) => {
+                            sun = Some((sp.towards, sp.irradiance * scale, sp.solid_angle, sp.share));
+                            sp.sky
+                        }
+                        None => t,
+                    };
                     self.scene.textures.push(t);
                     (Vec3::splat(scale), Some(self.scene.textures.len() as u32 - 1))
                 };
-                let to_local = rotation(&obj)?.inverse();
+                let rot = rotation(&obj)?;
+                let to_local = rot.inverse();
                 self.finish(&obj);
+                let id = c.attribute("id").map(str::to_owned);
                 self.add_light(
                     Light::Environment {
                         radiance,
                         texture,
                         to_local,
                     },
-                    c.attribute("id").map(str::to_owned),
+                    id.clone(),
                 );
+                if let Some((towards, irradiance, solid_angle, share)) = sun {
+                    self.add_light(
+                        Light::Directional {
+                            direction: -(rot * towards).normalize(),
+                            irradiance,
+                        },
+                        Some(format!("{} (sun)", id.as_deref().unwrap_or("envmap"))),
+                    );
+                    self.scene.sun_disk = Some(crate::scene::SunDisk {
+                        light: self.scene.lights.len() as u32 - 1,
+                        solid_angle,
+                    });
+                    self.note(
+                        s,
+                        c,
+                        format!(
+                            "envmap: its sun ({:.0} % of its light, {:.1e} sr) is a \
+                             directional light, so that its shadows are ray traced",
+                            100.0 * share,
+                            solid_angle
+                        ),
+                    );
+                }
             }
             "sunsky" => self.sunsky(s, c)?,
             t => self.warn(s, c, format!("emitter '{t}' is not supported; ignored")),

@@ -590,6 +590,76 @@ fn daylight_emitters_read_as_mitsuba_and_bad_ones_fail_with_their_line() {
     assert!(e.contains("direction"), "{e}");
 }
 
+/// An `envmap` whose sun (one texel 10^5 times its sky) holds most of its light: the
+/// sun becomes a directional light along its texel's direction (turned by `to_world`),
+/// with a disk that rays see, and a note naming the line; the sky keeps only the
+/// texel's share under the cutoff. A map with no such sun stays whole.
+#[test]
+fn an_envmaps_sun_becomes_a_directional_light() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, sun: f32| {
+        exr::prelude::write_rgb_file(dir.path().join(name), 64, 33, |x, y| {
+            if (x, y) == (16, 8) {
+                (sun, sun, sun)
+            } else {
+                (1.0f32, 1.0f32, 1.0f32)
+            }
+        })
+        .unwrap();
+    };
+    write("sun.exr", 1.0e5);
+    write("flat.exr", 1.0);
+    let load_sky = |file: &str| {
+        let xml = format!(
+            "<scene version=\"3.0.0\">\n{SENSOR}\n<emitter type=\"envmap\"><string name=\"filename\" value=\"{file}\"/>\
+             <float name=\"scale\" value=\"2\"/><transform name=\"to_world\"><rotate y=\"1\" angle=\"90\"/></transform></emitter>\n</scene>"
+        );
+        let path = dir.path().join("scene.xml");
+        fs::write(&path, &xml).unwrap();
+        load(&path, &[]).unwrap()
+    };
+    let l = load_sky("sun.exr");
+    assert!(
+        l.notes
+            .iter()
+            .any(|n| n.contains("scene.xml:3:") && n.contains("its sun")),
+        "{:?}",
+        l.notes
+    );
+    let suns: Vec<_> = l
+        .scene
+        .lights
+        .iter()
+        .filter_map(|x| match x {
+            Light::Directional {
+                direction,
+                irradiance,
+            } => Some((*direction, *irradiance)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(suns.len(), 1);
+    let (d, e) = suns[0];
+    // Texel (16, 8) looks along (0.707, 0.707, 0) in the map; turned 90 degrees about
+    // y, (0, 0.707, -0.707): the light travels the other way.
+    let want = Vec3::new(0.0, -1.0, 1.0).normalize();
+    assert!((d - want).length() < 1e-3, "{d}");
+    // Its excess over the cutoff (1 % of the peak) times the texel's solid angle and
+    // the scale.
+    let omega = (2.0 * PI / 64.0) * (PI / 32.0) * (PI / 4.0).sin();
+    let want_e = 2.0 * (1.0e5 - 1.0e3) * omega;
+    assert!((e.x - want_e).abs() < 1e-3 * want_e, "{e} vs {want_e}");
+    assert!(l.scene.sun_seen(-d).x > 1.0e4);
+    assert!(l.scene.sky(-d).x <= 2.0 * 1.0e3 * 1.001, "{}", l.scene.sky(-d));
+    let l = load_sky("flat.exr");
+    assert!(l.notes.is_empty(), "{:?}", l.notes);
+    assert!(!l
+        .scene
+        .lights
+        .iter()
+        .any(|x| matches!(x, Light::Directional { .. })));
+}
+
 /// `sunsky`: a sky image and a sun, in the emitter's frame (+z up, here turned to +y
 /// by `to_world`), the sun placed by `sun_direction` (world space, as Mitsuba) or by
 /// date, time and place; bad values and a sun below the horizon are reported with
