@@ -177,7 +177,7 @@ impl Loader {
                     }
                     // A sky photograph's sun becomes a directional light beside it
                     // (see `hdr_sun`), unless the scene already has a sun.
-                    let split = if self.scene.sun_disk.is_none() {
+                    let split = if self.scene.sun_disk.is_none() && scale > 0.0 {
                         crate::scene::hdr_sun::split(&t)
                     } else {
                         None
