@@ -36,6 +36,9 @@ pub struct Facet {
     pub m: Vec3,
     /// The shading normal, on the ray's side.
     n: Vec3,
+    /// dp/du, which orients an anisotropic distribution (zero: the frame from the
+    /// normal alone, [`Frame::with_tangent`]).
+    dpdu: Vec3,
     /// Rough glass's distribution.
     rough: Option<Microfacet>,
 }
@@ -49,18 +52,34 @@ impl Facet {
         let Some(d) = self.rough else {
             return 1.0;
         };
-        let f = Frame::new(self.n);
+        let f = Frame::with_tangent(self.n, self.dpdu);
         d.weight(f.local(wo), f.local(wi), f.local(self.m))
     }
 }
 
 impl BsdfKind {
+    /// The dp/du that orients rough glass's facets: `dpdu()` where its distribution is
+    /// anisotropic (as Mitsuba 3's shading frame: see [`Frame::with_tangent`]), zero
+    /// otherwise (the frame from the normal alone, which an isotropic distribution
+    /// cannot tell apart), so the point's dp/du is found only where it matters.
+    pub fn glass_dpdu(&self, dpdu: impl FnOnce() -> Vec3) -> Vec3 {
+        match self {
+            BsdfKind::Dielectric {
+                rough: Some(d),
+                thin: false,
+                ..
+            } if d.alpha_u != d.alpha_v => dpdu(),
+            _ => Vec3::ZERO,
+        }
+    }
+
     /// The facet a ray arriving along `-wo` meets on glass of shading normal `ns`
     /// (unit, outward): on rough glass a microfacet normal drawn from `u` by
     /// [`Microfacet::sample_visible`] about the normal on the ray's side, else that
-    /// normal; with the split about it. `None` if the material is not glass, or the
-    /// facet drawn faces away from the ray.
-    pub fn facet(&self, wo: Vec3, ns: Vec3, u: Vec2) -> Option<Facet> {
+    /// normal; with the split about it. An anisotropic distribution's `alpha_u` lies
+    /// along `dpdu` ([`BsdfKind::glass_dpdu`]; zero for any other). `None` if the
+    /// material is not glass, or the facet drawn faces away from the ray.
+    pub fn facet(&self, wo: Vec3, ns: Vec3, dpdu: Vec3, u: Vec2) -> Option<Facet> {
         let BsdfKind::Dielectric { rough, thin, .. } = self else {
             return None;
         };
@@ -68,7 +87,7 @@ impl BsdfKind {
         let n = if outside { ns } else { -ns };
         let (m, rough) = match rough {
             Some(d) if !thin => {
-                let frame = Frame::new(n);
+                let frame = Frame::with_tangent(n, dpdu);
                 let m = frame.world(d.sample_visible(frame.local(wo), u)).normalize();
                 if !(wo.dot(m) > 0.0) {
                     return None;
@@ -78,7 +97,13 @@ impl BsdfKind {
             _ => (n, None),
         };
         let split = self.split(wo, if outside { m } else { -m })?;
-        Some(Facet { split, m, n, rough })
+        Some(Facet {
+            split,
+            m,
+            n,
+            dpdu,
+            rough,
+        })
     }
 
     /// Rough glass's BSDF (for radiance) from `wi` to `wo` (unit; either side) at
@@ -86,9 +111,9 @@ impl BsdfKind {
     /// [`Self::facet`] sends a ray along `wi` (its reflection or its transmission, as
     /// `wi` lies): Walter et al. (2007), eq. 20 and 21, the transmission for radiance
     /// (the squared index ratio divided out), with the densities of eq. 14 and 17
-    /// over the facets' [`Microfacet::pdf_m`]. `None` if the material is not rough
-    /// glass.
-    pub fn rough_glass_eval(&self, wo: Vec3, wi: Vec3, ns: Vec3) -> Option<(Rgb, f32)> {
+    /// over the facets' [`Microfacet::pdf_m`], in the frame [`Self::facet`] draws
+    /// in (`dpdu` as there). `None` if the material is not rough glass.
+    pub fn rough_glass_eval(&self, wo: Vec3, wi: Vec3, ns: Vec3, dpdu: Vec3) -> Option<(Rgb, f32)> {
         let BsdfKind::Dielectric {
             eta,
             specular_reflectance,
@@ -103,7 +128,7 @@ impl BsdfKind {
         let outside = wo.dot(ns) >= 0.0;
         let n = if outside { ns } else { -ns };
         let eta = if outside { *eta } else { 1.0 / eta };
-        let frame = Frame::new(n);
+        let frame = Frame::with_tangent(n, dpdu);
         let (o, i) = (frame.local(wo), frame.local(wi));
         if !(o.z > 0.0) || i.z == 0.0 {
             return none;
@@ -320,7 +345,7 @@ mod tests {
                 let (mut r_mean, mut t_mean) = (0.0f64, 0.0f64);
                 for k in 0..n {
                     let [u, v, _] = uniform3(17, k);
-                    let Some(f) = kind.facet(wo, ns, Vec2::new(u, v)) else {
+                    let Some(f) = kind.facet(wo, ns, Vec3::ZERO, Vec2::new(u, v)) else {
                         continue;
                     };
                     let wr = 2.0 * wo.dot(f.m) * f.m - wo;
@@ -400,7 +425,7 @@ mod tests {
         for (k, ns) in (0..2000).zip([Vec3::Z, -Vec3::Z].into_iter().cycle()) {
             let [a, b, c] = uniform3(5, k);
             let wo = Vec3::new(0.8 * a - 0.4, 0.3 * b, 1.0).normalize();
-            let Some(f) = kind.facet(wo, ns, Vec2::new(c, a)) else {
+            let Some(f) = kind.facet(wo, ns, Vec3::ZERO, Vec2::new(c, a)) else {
                 continue;
             };
             let wr = 2.0 * wo.dot(f.m) * f.m - wo;
@@ -409,7 +434,7 @@ mod tests {
                 rays.push((f.split.dir, f.split.transmit.x * f.weight(wo, f.split.dir)));
             }
             for (wi, w) in rays {
-                let (value, pdf) = kind.rough_glass_eval(wo, wi, ns).unwrap();
+                let (value, pdf) = kind.rough_glass_eval(wo, wi, ns, Vec3::ZERO).unwrap();
                 if w > 0.0 {
                     let got = value.x * wi.dot(ns).abs() / pdf;
                     assert!((got - w).abs() <= 1e-3 * w.max(1.0), "{got} {w}");
@@ -418,7 +443,10 @@ mod tests {
             }
         }
         assert!(checked > 2000, "{checked}");
-        assert_eq!(glass(false).rough_glass_eval(Vec3::Z, Vec3::Z, Vec3::Z), None);
+        assert_eq!(
+            glass(false).rough_glass_eval(Vec3::Z, Vec3::Z, Vec3::Z, Vec3::ZERO),
+            None
+        );
     }
 
     /// Rough glass of a tiny roughness splits a ray as smooth glass does.
@@ -439,7 +467,7 @@ mod tests {
         let wo = Vec3::new(0.6, 0.0, 0.8);
         for ns in [Vec3::Z, -Vec3::Z] {
             let a = smooth.split(wo, ns).unwrap();
-            let f = rough.facet(wo, ns, Vec2::new(0.3, 0.7)).unwrap();
+            let f = rough.facet(wo, ns, Vec3::ZERO, Vec2::new(0.3, 0.7)).unwrap();
             assert!((f.split.dir - a.dir).length() < 1e-3, "{} {}", f.split.dir, a.dir);
             assert!((f.split.reflect - a.reflect).abs().max_element() < 1e-3);
             assert!((f.split.transmit - a.transmit).abs().max_element() < 1e-3);
@@ -519,5 +547,45 @@ mod tests {
         let t = glass(true).shadow_transmittance(-0.7).unwrap();
         assert!((t - (1.0 - thin_reflectance(0.7, 1.5))).abs() < 1e-6);
         assert_eq!(glass(false).shadow_transmittance(1.0), None);
+    }
+
+    /// Anisotropic rough glass lies along dp/du: light reflected 20 degrees off the
+    /// normal along dp/du (alpha_u 0.05) is under 1 % of that along the other tangent
+    /// (alpha_v 0.5); facets drawn spread the same way; with no dp/du (isotropic glass)
+    /// the frame from the normal is kept.
+    #[test]
+    fn anisotropic_rough_glass_lies_along_dpdu() {
+        let kind = BsdfKind::Dielectric {
+            eta: 1.5,
+            specular_reflectance: Vec3::ONE,
+            specular_transmittance: Vec3::ONE,
+            thin: false,
+            rough: Some(Microfacet {
+                alpha_u: 0.05,
+                alpha_v: 0.5,
+                beckmann: false,
+            }),
+        };
+        assert_eq!(kind.glass_dpdu(|| Vec3::X), Vec3::X);
+        assert_eq!(glass(false).glass_dpdu(|| Vec3::X), Vec3::ZERO);
+        let (wo, ns) = (Vec3::Z, Vec3::Z);
+        let tilt = 20f32.to_radians();
+        let along_x = Vec3::new(tilt.sin(), 0.0, tilt.cos());
+        let along_y = Vec3::new(0.0, tilt.sin(), tilt.cos());
+        let f = |wi: Vec3, dpdu: Vec3| kind.rough_glass_eval(wo, wi, ns, dpdu).unwrap().0.x;
+        assert!(f(along_x, Vec3::X) < 0.01 * f(along_y, Vec3::X));
+        assert!(f(along_y, Vec3::Y) < 0.01 * f(along_x, Vec3::Y));
+        // The facets drawn with dp/du along x lean along y far more than along x.
+        let (mut sx, mut sy) = (0.0f32, 0.0f32);
+        for i in 0..16 {
+            for j in 0..16 {
+                let u = Vec2::new((i as f32 + 0.5) / 16.0, (j as f32 + 0.5) / 16.0);
+                if let Some(fc) = kind.facet(wo, ns, Vec3::X, u) {
+                    sx += fc.m.x * fc.m.x;
+                    sy += fc.m.y * fc.m.y;
+                }
+            }
+        }
+        assert!(sx < 0.05 * sy, "{sx} vs {sy}");
     }
 }

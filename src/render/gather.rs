@@ -542,9 +542,16 @@ impl Gather {
             }
             if bsdf.kind.is_glass() {
                 // Glass: on through one of its two rays, drawn by their weights.
-                let Some((next, weight, _)) =
-                    super::glass::rays(&bsdf.kind, &y, ray.dir, super::glass::GLASS_SPLIT_DEPTH, s()).pop()
-                else {
+                let dpdu = bsdf.kind.glass_dpdu(|| y.dpdu(ctx.scene));
+                let Some((next, weight, _)) = super::glass::rays(
+                    &bsdf.kind,
+                    &y,
+                    dpdu,
+                    ray.dir,
+                    super::glass::GLASS_SPLIT_DEPTH,
+                    s(),
+                )
+                .pop() else {
                     break;
                 };
                 counters.gather_rays += 1;

@@ -26,15 +26,24 @@ pub const PRIMARY_FACETS: u32 = 2;
 /// The rays that leave glass of model `kind` hit at `sp` by a ray of direction `dir`
 /// at bounce `depth`: each with its weight and its path's seed (at most two; none if
 /// `kind` is not glass).
-pub fn rays(kind: &BsdfKind, sp: &SurfacePoint, dir: Vec3, depth: u32, seed: u32) -> Vec<(Ray, Rgb, u32)> {
+pub fn rays(
+    kind: &BsdfKind,
+    sp: &SurfacePoint,
+    dpdu: Vec3,
+    dir: Vec3,
+    depth: u32,
+    seed: u32,
+) -> Vec<(Ray, Rgb, u32)> {
     let [u, v, _] = uniform3(derive(seed, Stream::Transmission), 1);
-    rays_about(kind, sp, dir, depth, seed, Vec2::new(u, v))
+    rays_about(kind, sp, dpdu, dir, depth, seed, Vec2::new(u, v))
 }
 
-/// [`rays`], with rough glass's microfacet normal drawn by `facet_u`.
+/// [`rays`], with rough glass's microfacet normal drawn by `facet_u`. `dpdu` orients
+/// an anisotropic distribution ([`BsdfKind::glass_dpdu`]).
 pub fn rays_about(
     kind: &BsdfKind,
     sp: &SurfacePoint,
+    dpdu: Vec3,
     dir: Vec3,
     depth: u32,
     seed: u32,
@@ -43,7 +52,7 @@ pub fn rays_about(
     // `sp.ns` faces the arriving ray; the glass's sides are told by `sp.front`.
     let outward = if sp.front { sp.ns } else { -sp.ns };
     // Rough glass: both rays leave about one microfacet normal.
-    let Some(facet) = kind.facet(-dir, outward, facet_u) else {
+    let Some(facet) = kind.facet(-dir, outward, dpdu, facet_u) else {
         return Vec::new();
     };
     let Split {

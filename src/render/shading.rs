@@ -401,7 +401,8 @@ impl<'a> Tracer<'a> {
     ) -> Rgb {
         let mut l = Vec3::ZERO;
         if depth < self.max_depth {
-            for (r, w, s) in glass::rays(kind, sp, ray.dir, depth, seed) {
+            let dpdu = kind.glass_dpdu(|| sp.dpdu(self.scene));
+            for (r, w, s) in glass::rays(kind, sp, dpdu, ray.dir, depth, seed) {
                 counters.reflection_rays += 1;
                 l += w * follow(self, &r, s, counters);
             }
@@ -491,16 +492,19 @@ impl<'a> Tracer<'a> {
             }
         };
         let mut l = Vec3::ZERO;
+        let dpdu = kind.glass_dpdu(|| sp.dpdu(self.scene));
         let facets = if depth == 0 { glass::PRIMARY_FACETS } else { 1 };
         for k in 0..facets {
             let u = stratum(derive(seed, Stream::Transmission), 1, k, facets);
             let fs = derive(seed, Stream::Sample(k));
-            for (r, w, s) in glass::rays_about(kind, sp, ray.dir, depth, fs, u) {
+            for (r, w, s) in glass::rays_about(kind, sp, dpdu, ray.dir, depth, fs, u) {
                 counters.reflection_rays += 1;
                 let (radiance, emitter) = self.reflected(&r, depth + 1, s, counters);
                 let mut got = radiance;
                 if let Some((li, le, p_l)) = emitter {
-                    let p_b = kind.rough_glass_eval(wo, r.dir, outward).map_or(0.0, |x| x.1);
+                    let p_b = kind
+                        .rough_glass_eval(wo, r.dir, outward, dpdu)
+                        .map_or(0.0, |x| x.1);
                     got += le * power_heuristic(p_b, samples(&lights[li as usize]) as f32 * p_l);
                 }
                 l += w * got / facets as f32;
@@ -512,7 +516,7 @@ impl<'a> Tracer<'a> {
             if (dir.dot(sp.ng) > 0.0) != (dir.dot(sp.ns) > 0.0) {
                 return None;
             }
-            kind.rough_glass_eval(wo, dir, outward)
+            kind.rough_glass_eval(wo, dir, outward, dpdu)
         });
         Some(l)
     }

@@ -93,17 +93,7 @@ impl Loader {
             }
             "dielectric" | "thindielectric" | "roughdielectric" => {
                 let rough = if ty == "roughdielectric" {
-                    let d = self.microfacet(s, &obj)?;
-                    if d.alpha_u != d.alpha_v {
-                        self.warn(
-                            s,
-                            c,
-                            "anisotropic roughness on rough glass: its lobe's axes are \
-                             oriented arbitrarily about the normal (radtrace orients them by \
-                             the surface's dp/du only on glossy reflection)",
-                        );
-                    }
-                    Some(d)
+                    Some(self.microfacet(s, &obj)?)
                 } else {
                     None
                 };
