@@ -312,6 +312,21 @@ mod tests {
         BsdfKind::clear_glass(1.5, thin)
     }
 
+    /// Clear rough glass of relative index 1.5 and roughness `alpha_u`, `alpha_v`.
+    fn rough_glass(alpha_u: f32, alpha_v: f32, beckmann: bool) -> BsdfKind {
+        BsdfKind::Dielectric {
+            eta: 1.5,
+            specular_reflectance: Vec3::ONE,
+            specular_transmittance: Vec3::ONE,
+            thin: false,
+            rough: Some(Microfacet {
+                alpha_u,
+                alpha_v,
+                beckmann,
+            }),
+        }
+    }
+
     /// Rough glass (GGX and Beckmann, alpha 0.3, relative index 1.5), met from outside
     /// at 0 and 50 degrees and from inside at 25: the mean weights of the reflected and
     /// the transmitted rays over many facets drawn ([`BsdfKind::facet`]) are the
@@ -410,17 +425,7 @@ mod tests {
     #[test]
     fn rough_glass_evaluates_to_the_weights_its_rays_carry() {
         use crate::sampling::uniform3;
-        let kind = BsdfKind::Dielectric {
-            eta: 1.5,
-            specular_reflectance: Vec3::ONE,
-            specular_transmittance: Vec3::ONE,
-            thin: false,
-            rough: Some(Microfacet {
-                alpha_u: 0.2,
-                alpha_v: 0.2,
-                beckmann: false,
-            }),
-        };
+        let kind = rough_glass(0.2, 0.2, false);
         let mut checked = 0;
         for (k, ns) in (0..2000).zip([Vec3::Z, -Vec3::Z].into_iter().cycle()) {
             let [a, b, c] = uniform3(5, k);
@@ -555,17 +560,7 @@ mod tests {
     /// the frame from the normal is kept.
     #[test]
     fn anisotropic_rough_glass_lies_along_dpdu() {
-        let kind = BsdfKind::Dielectric {
-            eta: 1.5,
-            specular_reflectance: Vec3::ONE,
-            specular_transmittance: Vec3::ONE,
-            thin: false,
-            rough: Some(Microfacet {
-                alpha_u: 0.05,
-                alpha_v: 0.5,
-                beckmann: false,
-            }),
-        };
+        let kind = rough_glass(0.05, 0.5, false);
         assert_eq!(kind.glass_dpdu(|| Vec3::X), Vec3::X);
         assert_eq!(glass(false).glass_dpdu(|| Vec3::X), Vec3::ZERO);
         let (wo, ns) = (Vec3::Z, Vec3::Z);
