@@ -27,10 +27,8 @@ const SUN_MAX_ANGLE: f32 = 10.0;
 /// luminance times solid angle), or splitting it off would gain nothing.
 const SUN_SHARE: f32 = 0.2;
 
-/// A sky photograph split into its sky and its sun ([`split`]).
-pub struct Split {
-    /// The map with the sun's excess taken out.
-    pub sky: Texture,
+/// A sky photograph's sun ([`split`]).
+pub struct Sun {
     /// Towards the sun, in the map's frame ([`environment_dir`]'s).
     pub towards: Vec3,
     /// The sun's irradiance across its direction, in the map's units (before its
@@ -46,48 +44,52 @@ fn luminance(c: Rgb) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
-/// The sun of the latitude-longitude map `map`, split off, if it has one (see the
-/// module text); `None` otherwise. Texel (x, y) looks along [`environment_dir`] of
-/// (x / width, y / (height - 1)), as [`Texture::eval_lat_long`] reads it, and stands
-/// for the solid angle (2 pi / width) (pi / (height - 1)) sin(theta).
-pub fn split(map: &Texture) -> Option<Split> {
+/// The texels of `map` in order, row by row: colour, luminance, solid angle and the
+/// (u, v) it looks along. Texel (x, y) looks along [`environment_dir`] of (x /
+/// width, y / (height - 1)), as [`Texture::eval_lat_long`] reads it, and stands for the
+/// solid angle (2 pi / width) (pi / (height - 1)) sin(theta). Read again by each pass,
+/// so that a large map costs no copy of its texels.
+fn texels(map: &Texture) -> impl Iterator<Item = (Rgb, f32, f32, Vec2)> + '_ {
+    let (w, h) = map.size();
+    let dphi = 2.0 * std::f32::consts::PI / w as f32;
+    let dtheta = std::f32::consts::PI / (h - 1) as f32;
+    (0..h).flat_map(move |y| {
+        let omega = dphi * dtheta * (dtheta * y as f32).sin().max(0.0);
+        (0..w).map(move |x| {
+            let c = map.texel(i64::from(x), i64::from(y));
+            let uv = Vec2::new(x as f32 / w as f32, y as f32 / (h - 1) as f32);
+            (c, luminance(c), omega, uv)
+        })
+    })
+}
+
+/// The sun of the latitude-longitude map `map`, if it has one (see the module text),
+/// and the map without it; `None` otherwise.
+pub fn split(map: &Texture) -> Option<(Texture, Sun)> {
     let (w, h) = map.size();
     if w < 2 || h < 3 {
         return None;
     }
-    let dphi = 2.0 * std::f32::consts::PI / w as f32;
-    let dtheta = std::f32::consts::PI / (h - 1) as f32;
-    let mut texels = Vec::with_capacity((w * h) as usize);
     let (mut total, mut peak) = (0.0f64, 0.0f32);
-    for y in 0..h {
-        let omega = dphi * dtheta * (dtheta * y as f32).sin().max(0.0);
-        for x in 0..w {
-            let c = map.texel(i64::from(x), i64::from(y));
-            let l = luminance(c);
-            if !(l.is_finite() && c.is_finite()) {
-                return None;
-            }
-            total += f64::from(l * omega);
-            if omega > 0.0 {
-                peak = peak.max(l);
-            }
-            texels.push((
-                c,
-                l,
-                omega,
-                Vec2::new(x as f32 / w as f32, y as f32 / (h - 1) as f32),
-            ));
+    for (c, l, omega, _) in texels(map) {
+        if !(l.is_finite() && c.is_finite()) {
+            return None;
+        }
+        total += f64::from(l * omega);
+        if omega > 0.0 {
+            peak = peak.max(l);
         }
     }
     if !(total > 0.0 && peak > 0.0) {
         return None;
     }
     let cutoff = peak * SUN_CUTOFF;
-    // The sun's excess per texel (its colour kept), and their sum.
+    // A texel of the sun, and its excess over the cutoff (its colour kept).
+    let in_sun = |l: f32, omega: f32| l > cutoff && omega > 0.0;
     let excess = |c: Rgb, l: f32| c * (1.0 - cutoff / l);
     let (mut towards, mut irradiance, mut solid_angle) = (Vec3::ZERO, Vec3::ZERO, 0.0f32);
-    for &(c, l, omega, uv) in &texels {
-        if l > cutoff && omega > 0.0 {
+    for (c, l, omega, uv) in texels(map) {
+        if in_sun(l, omega) {
             let e = excess(c, l) * omega;
             towards += environment_dir(uv) * luminance(e);
             irradiance += e;
@@ -97,30 +99,28 @@ pub fn split(map: &Texture) -> Option<Split> {
     let towards = towards.try_normalize()?;
     let share = (f64::from(luminance(irradiance)) / total) as f32;
     let cos_max = SUN_MAX_ANGLE.to_radians().cos();
-    let compact = texels
-        .iter()
-        .filter(|t| t.1 > cutoff && t.2 > 0.0)
-        .all(|t| environment_dir(t.3).dot(towards) >= cos_max);
+    let compact = texels(map)
+        .filter(|&(_, l, omega, _)| in_sun(l, omega))
+        .all(|(_, _, _, uv)| environment_dir(uv).dot(towards) >= cos_max);
     if !(compact && share >= SUN_SHARE) {
         return None;
     }
-    let sky: Vec<[f32; 3]> = texels
-        .iter()
-        .map(|&(c, l, omega, _)| {
-            if l > cutoff && omega > 0.0 {
+    let sky: Vec<[f32; 3]> = texels(map)
+        .map(|(c, l, omega, _)| {
+            if in_sun(l, omega) {
                 (c - excess(c, l)).to_array()
             } else {
                 c.to_array()
             }
         })
         .collect();
-    Some(Split {
-        sky: Texture::from_linear(&map.name, w, h, sky).ok()?,
+    let sun = Sun {
         towards,
         irradiance,
         solid_angle,
         share,
-    })
+    };
+    Some((Texture::from_linear(&map.name, w, h, sky).ok()?, sun))
 }
 
 #[cfg(test)]
@@ -146,7 +146,7 @@ mod tests {
     fn a_photographed_sun_is_split_off() {
         let (w, h) = (256, 129);
         let t = map(w, h, 1.0, (40, 30), 2, 1.0e4);
-        let s = split(&t).expect("a sun");
+        let (sky, s) = split(&t).expect("a sun");
         let dphi = 2.0 * std::f32::consts::PI / w as f32;
         let dtheta = std::f32::consts::PI / (h - 1) as f32;
         let omega = |y: u32| dphi * dtheta * (dtheta * y as f32).sin();
@@ -160,8 +160,8 @@ mod tests {
         );
         let centre = environment_dir(Vec2::new(40.5 / w as f32, 30.5 / (h - 1) as f32));
         assert!(s.towards.dot(centre) > 0.9999, "{} vs {centre}", s.towards);
-        assert!((s.sky.texel(40, 30).x - 100.0).abs() < 1e-2);
-        assert_eq!(s.sky.texel(100, 60).x, 1.0);
+        assert!((sky.texel(40, 30).x - 100.0).abs() < 1e-2);
+        assert_eq!(sky.texel(100, 60).x, 1.0);
         assert!(s.share > 0.5 && s.share < 1.0, "{}", s.share);
     }
 

@@ -149,8 +149,7 @@ impl Loader {
                     ));
                 }
                 let obj = self.collect(s, c, format!("emitter '{ty}'"))?;
-                // A sky photograph's sun, split off: towards it (map frame), its
-                // irradiance, solid angle and share of the map's light.
+                // A sky photograph's sun, split off ([`hdr_sun`]).
                 let mut sun = None;
                 let (radiance, texture) = if ty == "constant" {
                     (obj.emission("radiance")?, None)
@@ -183,9 +182,12 @@ impl Loader {
                         None
                     };
                     let t = match split {
-                        Some(sp) => {
-                            sun = Some((sp.towards, sp.irradiance * scale, sp.solid_angle, sp.share));
-                            sp.sky
+                        Some((sky, found)) => {
+                            sun = Some(crate::scene::hdr_sun::Sun {
+                                irradiance: found.irradiance * scale,
+                                ..found
+                            });
+                            sky
                         }
                         None => t,
                     };
@@ -204,26 +206,21 @@ impl Loader {
                     },
                     id.clone(),
                 );
-                if let Some((towards, irradiance, solid_angle, share)) = sun {
-                    self.add_light(
-                        Light::Directional {
-                            direction: -(rot * towards).normalize(),
-                            irradiance,
-                        },
-                        Some(format!("{} (sun)", id.as_deref().unwrap_or("envmap"))),
+                if let Some(sun) = sun {
+                    self.add_sun(
+                        -(rot * sun.towards).normalize(),
+                        sun.irradiance,
+                        sun.solid_angle,
+                        Some(id.as_deref().unwrap_or("envmap")),
                     );
-                    self.scene.sun_disk = Some(crate::scene::SunDisk {
-                        light: self.scene.lights.len() as u32 - 1,
-                        solid_angle,
-                    });
                     self.note(
                         s,
                         c,
                         format!(
                             "envmap: its sun ({:.0} % of its light, {:.1e} sr) is a \
                              directional light, so that its shadows are ray traced",
-                            100.0 * share,
-                            solid_angle
+                            100.0 * sun.share,
+                            sun.solid_angle
                         ),
                     );
                 }
@@ -368,17 +365,27 @@ impl Loader {
         let irradiance = sunsky::rgb(model.sun_irradiance()).max(Vec3::ZERO) * sun_scale;
         if irradiance != Vec3::ZERO {
             let towards = (rot * sun_local.as_vec3()).normalize();
-            let sun = Light::Directional {
-                direction: -towards,
-                irradiance,
-            };
-            self.add_light(sun, id.map(|i| format!("{i} (sun)")));
-            self.scene.sun_disk = Some(crate::scene::SunDisk {
-                light: self.scene.lights.len() as u32 - 1,
-                solid_angle: crate::sampling::cone_solid_angle((0.5 * aperture).to_radians()),
-            });
+            let solid_angle = crate::sampling::cone_solid_angle((0.5 * aperture).to_radians());
+            self.add_sun(-towards, irradiance, solid_angle, id.as_deref());
         }
         Ok(())
+    }
+
+    /// A sun (`sunsky`'s, or a sky photograph's): a directional light travelling
+    /// along `direction`, named after the emitter `id` as "ID (sun)", and the disk of
+    /// `solid_angle` that camera, mirror and glass rays see ([`crate::scene::SunDisk`]).
+    fn add_sun(&mut self, direction: Vec3, irradiance: Vec3, solid_angle: f32, id: Option<&str>) {
+        self.add_light(
+            Light::Directional {
+                direction,
+                irradiance,
+            },
+            id.map(|i| format!("{i} (sun)")),
+        );
+        self.scene.sun_disk = Some(crate::scene::SunDisk {
+            light: self.scene.lights.len() as u32 - 1,
+            solid_angle,
+        });
     }
 }
 
