@@ -58,17 +58,15 @@ impl Facet {
 }
 
 impl BsdfKind {
-    /// The dp/du that orients rough glass's facets: `dpdu()` where its distribution is
-    /// anisotropic (as Mitsuba 3's shading frame: see [`Frame::with_tangent`]), zero
-    /// otherwise (the frame from the normal alone, which an isotropic distribution
-    /// cannot tell apart), so the point's dp/du is found only where it matters.
+    /// The dp/du that orients rough glass's facets ([`Microfacet::tangent`]; zero for
+    /// any other glass).
     pub fn glass_dpdu(&self, dpdu: impl FnOnce() -> Vec3) -> Vec3 {
         match self {
             BsdfKind::Dielectric {
                 rough: Some(d),
                 thin: false,
                 ..
-            } if d.alpha_u != d.alpha_v => dpdu(),
+            } => d.tangent(dpdu),
             _ => Vec3::ZERO,
         }
     }
@@ -139,9 +137,9 @@ impl BsdfKind {
             if !(oh > 0.0) {
                 return none;
             }
-            let dh = d.d(h);
-            let f = fresnel_dielectric(oh, eta) * dh * d.g(o, i, h) / (4.0 * o.z * i.z);
-            (*specular_reflectance * f, d.pdf_m(o, h) / (4.0 * oh))
+            let (dh, g1o) = (d.d(h), d.g1(o, h));
+            let f = fresnel_dielectric(oh, eta) * dh * (d.g1(i, h) * g1o) / (4.0 * o.z * i.z);
+            (*specular_reflectance * f, d.pdf_m(o, h, g1o, dh) / (4.0 * oh))
         } else {
             let h = (o + i * eta).normalize();
             let h = if h.z < 0.0 { -h } else { h };
@@ -150,12 +148,12 @@ impl BsdfKind {
                 return none;
             }
             let den = oh + eta * ih;
-            let dh = d.d(h);
-            let f = (1.0 - fresnel_dielectric(oh, eta)) * dh * d.g(o, i, h) * (ih * oh).abs()
+            let (dh, g1o) = (d.d(h), d.g1(o, h));
+            let f = (1.0 - fresnel_dielectric(oh, eta)) * dh * (d.g1(i, h) * g1o) * (ih * oh).abs()
                 / (-i.z * o.z * den * den);
             (
                 *specular_transmittance * f,
-                d.pdf_m(o, h) * eta * eta * ih.abs() / (den * den),
+                d.pdf_m(o, h, g1o, dh) * eta * eta * ih.abs() / (den * den),
             )
         };
         if value.is_finite() && pdf.is_finite() {

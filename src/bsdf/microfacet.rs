@@ -55,13 +55,27 @@ impl Microfacet {
         self.g1(wi, m) * self.g1(wo, m)
     }
 
+    /// The dp/du that orients the distribution ([`Frame::with_tangent`]): `dpdu()`
+    /// where it is anisotropic; zero otherwise, which keeps the frame from the normal
+    /// alone (an isotropic distribution cannot tell one frame from another, and its
+    /// sampled directions stay as they were), so a point's dp/du is found only where
+    /// it matters.
+    pub fn tangent(&self, dpdu: impl FnOnce() -> Vec3) -> Vec3 {
+        if self.alpha_u == self.alpha_v {
+            Vec3::ZERO
+        } else {
+            dpdu()
+        }
+    }
+
     /// The density per steradian of the normal `m` that [`Self::sample_visible`]
-    /// draws for `wo` (local frame): `G1(wo, m) (wo.m) d(m) / wo.z`.
-    pub fn pdf_m(&self, wo: Vec3, m: Vec3) -> f32 {
+    /// draws for `wo` (local frame): `G1(wo, m) (wo.m) d(m) / wo.z`, from `g1_wo` =
+    /// G1(wo, m) and `d_m` = d(m), which its callers' BSDFs have already found.
+    pub fn pdf_m(&self, wo: Vec3, m: Vec3, g1_wo: f32, d_m: f32) -> f32 {
         if wo.z <= 0.0 {
             return 0.0;
         }
-        self.g1(wo, m) * wo.dot(m).max(0.0) * self.d(m) / wo.z
+        g1_wo * wo.dot(m).max(0.0) * d_m / wo.z
     }
 
     /// What a direction `wi` leaving (by reflection or transmission) about a normal
@@ -155,16 +169,10 @@ impl Frame {
         }
     }
 
-    /// The frame of `lobe` round unit shading normal `n`: [`Frame::with_tangent`]
-    /// where the lobe is anisotropic, its tangent `dpdu()` (dp/du at the point);
-    /// [`Frame::new`]'s otherwise, which an isotropic lobe cannot tell from any other
-    /// (and which keeps its sampled directions as they were).
+    /// The frame of `lobe` round unit shading normal `n`, `dpdu()` being dp/du at the
+    /// point ([`Microfacet::tangent`]).
     pub fn of_lobe(lobe: &Glossy, n: Vec3, dpdu: impl FnOnce() -> Vec3) -> Self {
-        if lobe.distribution.alpha_u == lobe.distribution.alpha_v {
-            Self::new(n)
-        } else {
-            Self::with_tangent(n, dpdu())
-        }
+        Self::with_tangent(n, lobe.distribution.tangent(dpdu))
     }
 
     /// World direction `d` in the frame.
@@ -189,25 +197,30 @@ impl Glossy {
 
     /// The BRDF (without the cosine) between `wi` and `wo`, local frame.
     pub fn eval(&self, wi: Vec3, wo: Vec3) -> Rgb {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return Vec3::ZERO;
-        }
-        let m = (wi + wo).normalize();
-        let d = self.distribution.d(m);
-        if d == 0.0 {
-            return Vec3::ZERO;
-        }
-        let g = self.distribution.g(wi, wo, m);
-        self.scale * self.fresnel.at(wi.dot(m)) * (d * g / (4.0 * wi.z * wo.z))
+        self.eval_pdf(wi, wo).0
     }
 
     /// The density (solid angle) of [`Self::sample`] giving `wi` from `wo`.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.eval_pdf(wi, wo).1
+    }
+
+    /// [`Self::eval`] and [`Self::pdf`] together (a light sample at a glossy hit
+    /// wants both), the half vector's d(m) and G1(wo, m) found once.
+    pub fn eval_pdf(&self, wi: Vec3, wo: Vec3) -> (Rgb, f32) {
         if wi.z <= 0.0 || wo.z <= 0.0 {
-            return 0.0;
+            return (Vec3::ZERO, 0.0);
         }
         let m = (wi + wo).normalize();
-        self.distribution.pdf_m(wo, m) / (4.0 * wo.dot(m).abs())
+        let d = self.distribution.d(m);
+        if d == 0.0 {
+            return (Vec3::ZERO, 0.0);
+        }
+        let g1_wo = self.distribution.g1(wo, m);
+        let g = self.distribution.g1(wi, m) * g1_wo;
+        let value = self.scale * self.fresnel.at(wi.dot(m)) * (d * g / (4.0 * wi.z * wo.z));
+        let pdf = self.distribution.pdf_m(wo, m, g1_wo, d) / (4.0 * wo.dot(m).abs());
+        (value, pdf)
     }
 
     /// A direction `wi` drawn for viewing direction `wo` (local frame) from `u`, with

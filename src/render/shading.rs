@@ -370,7 +370,8 @@ impl<'a> Tracer<'a> {
                 return None;
             }
             let wi_l = frame.local(dir);
-            Some((lobe.eval(wi_l, wo_l), n as f32 * lobe.pdf(wo_l, wi_l)))
+            let (f, pdf) = lobe.eval_pdf(wi_l, wo_l);
+            Some((f, n as f32 * pdf))
         });
         l
     }
