@@ -619,16 +619,15 @@ fn parallelogram(tris: &[[Vec3; 3]]) -> Option<[Vec3; 3]> {
 
 /// Group `g` of `r` of an emitter's `n` sub-sources ([`group_bounds`]) and a point of
 /// it on the sampling square, jittered by the draws of `seed` at `g`
-/// ([`sub_source_uv`]; the square's corner for a single sub-source: a point or spot
-/// light). The one rule by which pass 2 places its shadow rays on a light.
+/// ([`sub_source_uv`]; a point, spot or directional light takes no point). The one
+/// rule by which pass 2 places its shadow rays on a light. A single sub-source is
+/// the whole square, jittered too: it was the square's corner, so that one light
+/// sample at a glossy hit seen through a mirror or a lobe (or every shadow ray with
+/// `--area-samples 1`) took an area light's corner every time.
 pub fn group_point(g: u32, r: u32, n: u32, seed: u32) -> (u32, u32, Vec2) {
+    let n = n.max(1);
     let (a, b) = group_bounds(g, r, n);
-    let uv = if n > 1 {
-        sub_source_uv(a, b, n, crate::sampling::uniform3(seed, g))
-    } else {
-        Vec2::ZERO
-    };
-    (a, b, uv)
+    (a, b, sub_source_uv(a, b, n, crate::sampling::uniform3(seed, g)))
 }
 
 /// Sub-sources `[g n / r, (g+1) n / r)` of `n`: group `g` of `r`. Groups are runs of

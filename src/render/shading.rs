@@ -905,6 +905,73 @@ mod tests {
         }
     }
 
+    /// A rough conductor floor under a square light, one light sample per hit
+    /// (`--area-samples 1`): the samples of many seeds average to the light's
+    /// reflection integrated over the square (its corner's, every time, before a
+    /// single sample was jittered over the light).
+    #[test]
+    fn one_light_sample_at_a_glossy_hit_covers_the_whole_light() {
+        use crate::scene::{Fresnel, Glossy, Microfacet};
+        let lobe = Glossy {
+            distribution: Microfacet {
+                alpha_u: 0.3,
+                alpha_v: 0.3,
+                beckmann: false,
+            },
+            fresnel: Fresnel::Conductor {
+                eta: Vec3::new(1.66, 0.88, 0.52),
+                k: Vec3::new(9.2, 6.3, 4.8),
+            },
+            scale: Vec3::ONE,
+        };
+        let (h, s_half, le) = (1.0f32, 0.25f32, 4.0f32);
+        let mut s = scene(
+            vec![
+                (square(10.0, 0.0, false), BsdfKind::RoughConductor { lobe }),
+                (
+                    square(s_half, h, true),
+                    BsdfKind::Diffuse {
+                        reflectance: Vec3::ZERO,
+                    },
+                ),
+            ],
+            vec![Light::Area {
+                shape: 1,
+                radiance: Vec3::splat(le),
+            }],
+        );
+        s.shapes[1].emitter = Some(0);
+        // Looking straight down at the origin: f(wi, z) Le cos_i cos_l / d^2 over
+        // the square, by the midpoint rule on 256 x 256 cells.
+        let cells = 256;
+        let side = 2.0 * s_half / cells as f32;
+        let mut expect = 0.0f64;
+        for j in 0..cells {
+            for i in 0..cells {
+                let p = Vec3::new(
+                    -s_half + (i as f32 + 0.5) * side,
+                    -s_half + (j as f32 + 0.5) * side,
+                    h,
+                );
+                let wi = p.normalize();
+                let f = lobe.eval(wi, Vec3::Z).x;
+                expect += f64::from(f * le * wi.z * wi.z / p.length_squared() * side * side);
+            }
+        }
+        let bvh = Bvh::build(&s);
+        let tracer = Tracer::new(&s, &bvh, &settings(1));
+        let ray = Ray::new(Vec3::new(0.0, 0.0, 0.5), -Vec3::Z);
+        let seeds = 4096;
+        let mut sum = 0.0f64;
+        for seed in 0..seeds {
+            let mut c = Counters::default();
+            sum += f64::from(tracer.radiance(&ray, 0, seed, &mut c).x);
+            assert_eq!(c.shadow_rays, 1);
+        }
+        let mean = sum / f64::from(seeds);
+        assert!((mean / expect - 1.0).abs() < 0.03, "{mean} vs {expect}");
+    }
+
     #[test]
     fn point_light_irradiance_on_a_plane_is_the_closed_form() {
         let (h, i) = (2.0f32, 10.0f32);
