@@ -354,7 +354,7 @@ impl<'a> Tracer<'a> {
             counters.reflection_rays += 1;
             let ray = sp.spawn(wi, f32::INFINITY);
             let (radiance, emitter) =
-                self.reflected(&ray, depth + 1, derive(seed, Stream::Sample(k)), counters);
+                self.reflected(&ray, depth + 1, derive(seed, Stream::Sample(k)), false, counters);
             let mut got = radiance;
             if let (true, Some((li, le, p_l))) = (mis, emitter) {
                 let p_b = lobe.pdf(wo_l, wi_l);
@@ -500,7 +500,7 @@ impl<'a> Tracer<'a> {
             let fs = derive(seed, Stream::Sample(k));
             for (r, w, s) in glass::rays_about(kind, sp, dpdu, ray.dir, depth, fs, u) {
                 counters.reflection_rays += 1;
-                let (radiance, emitter) = self.reflected(&r, depth + 1, s, counters);
+                let (radiance, emitter) = self.reflected(&r, depth + 1, s, false, counters);
                 let mut got = radiance;
                 if let Some((li, le, p_l)) = emitter {
                     let p_b = kind
@@ -528,11 +528,17 @@ impl<'a> Tracer<'a> {
     /// a solution, also the area light it lands on, if it does (on its front): the
     /// light's index, its radiance and the density per steradian of that light's own
     /// samples at the point.
+    ///
+    /// `specular`: the ray was reflected by a mirror or smooth glass on the way from
+    /// the lobe, where no light sample goes: an area light it meets and the sun's
+    /// disk count whole (light -> mirror -> lobe: a lamp's image in a mirror, seen in
+    /// a glossy floor).
     fn reflected(
         &self,
         ray: &Ray,
         depth: u32,
         seed: u32,
+        specular: bool,
         counters: &mut Counters,
     ) -> (Rgb, Option<(u32, Rgb, f32)>) {
         let (Diffuse::Selected { mesh, .. }, Some(total)) =
@@ -541,7 +547,12 @@ impl<'a> Tracer<'a> {
             return (self.trace(ray, depth, seed, counters, None, false), None);
         };
         let Some(hit) = self.accel.intersect(ray) else {
-            return (self.scene.sky(ray.dir), None);
+            let sun = if specular {
+                self.scene.sun_seen(ray.dir)
+            } else {
+                Vec3::ZERO
+            };
+            return (self.scene.sky(ray.dir) + sun, None);
         };
         let sp = SurfacePoint::new(self.scene, ray, &hit);
         let emitter = match (sp.front, self.scene.shapes[hit.shape as usize].emitter) {
@@ -556,15 +567,24 @@ impl<'a> Tracer<'a> {
         };
         let (bsdf, kind) = sp.material(self.scene);
         if let Some((on, through)) = self.through_mask(&sp, bsdf, ray, seed) {
-            return self.reflected(&through, depth, on, counters);
+            return self.reflected(&through, depth, on, specular, counters);
         }
         let sp = sp.bumped(self.scene, bsdf);
         if kind.is_glass() {
             if let Some(l) = self.rough_glass(&kind, &sp, ray, depth, seed, counters) {
                 return (l, emitter);
             }
+            // Light reflected by smooth glass, as by a mirror, no light sample finds.
+            // Through it, shadow rays cross a thin pane (and thick glass between
+            // parallel faces), so the light samples count what lies beyond, unless a
+            // mirror came first; rough glass so deep keeps to the solution's light.
+            let smooth = !kind.is_rough_glass();
             let l = self.through_glass(&kind, &sp, ray, depth, seed, counters, |t, r, s, c| {
-                t.reflected(r, depth + 1, s, c).0
+                let back = r.dir.dot(sp.ng) * ray.dir.dot(sp.ng) < 0.0;
+                match smooth && (back || specular) {
+                    true => t.reflected_whole(r, depth + 1, s, c),
+                    false => t.reflected(r, depth + 1, s, false, c).0,
+                }
             });
             return (l, emitter);
         }
@@ -588,12 +608,17 @@ impl<'a> Tracer<'a> {
             if m.max_element() > 0.0 && dir.dot(sp.ng) > 0.0 {
                 counters.reflection_rays += 1;
                 let refl = sp.spawn(dir, f32::INFINITY);
-                l += m * self
-                    .reflected(&refl, depth + 1, derive(seed, Stream::Reflection), counters)
-                    .0;
+                l += m * self.reflected_whole(&refl, depth + 1, derive(seed, Stream::Reflection), counters);
             }
         }
         (l, emitter)
+    }
+
+    /// [`Self::reflected`] past a mirror or smooth glass: the area light it meets
+    /// counts whole, with what it reflects.
+    fn reflected_whole(&self, ray: &Ray, depth: u32, seed: u32, counters: &mut Counters) -> Rgb {
+        let (l, emitter) = self.reflected(ray, depth, seed, true, counters);
+        l + emitter.map_or(Vec3::ZERO, |(_, radiance, _)| radiance)
     }
 
     /// Direct light at a diffuse hit from the picked source: `pick.rays` (over the

@@ -981,3 +981,78 @@ fn the_suns_disk_is_seen_directly_and_in_a_mirror_and_carries_its_irradiance() {
     let without = draw(&s, &Bvh::build(&s), &st, None).image;
     assert_eq!(with, without);
 }
+
+/// A glossy floor, a square lamp at half a metre facing up (the floor sees only its
+/// back) and a mirror ceiling at one metre: the floor reflects the lamp's image in the
+/// mirror, which no light sample finds. Averaged over many seeds, the radiance towards
+/// a viewer is the lobe integrated over that image (the lamp mirrored to 1.5 m, facing
+/// down); before the lobe's rays counted a light met past a mirror, none of it.
+#[test]
+fn a_glossy_floor_reflects_a_lamps_image_in_a_mirror() {
+    use crate::accel::Ray;
+    use crate::scene::{BsdfKind, Fresnel, Glossy, Microfacet};
+    use crate::testutil::{scene_with, square};
+    let lobe = Glossy {
+        distribution: Microfacet {
+            alpha_u: 0.4,
+            alpha_v: 0.4,
+            beckmann: false,
+        },
+        fresnel: Fresnel::Schlick { f0: Vec3::splat(0.9) },
+        scale: Vec3::ONE,
+    };
+    let (x0, x1, y0, y1, h, top) = (0.3f32, 0.7, -0.2, 0.2, 0.5, 1.0);
+    let le = 5.0f32;
+    let s = scene_with(
+        vec![
+            (
+                square(-3.0, 3.0, -3.0, 3.0, 0.0, false),
+                BsdfKind::RoughConductor { lobe },
+            ),
+            (
+                square(x0, x1, y0, y1, h, false),
+                BsdfKind::Diffuse {
+                    reflectance: Vec3::ZERO,
+                },
+            ),
+            (
+                square(-3.0, 3.0, -3.0, 3.0, top, true),
+                BsdfKind::Conductor {
+                    specular_reflectance: Vec3::ONE,
+                    fresnel: Fresnel::Schlick { f0: Vec3::ONE },
+                },
+            ),
+        ],
+        vec![],
+        &[(1, Vec3::splat(le))],
+    );
+    let bvh = Bvh::build(&s);
+    let sol = solve(&s, &bvh, &solve_settings(0.2, 4), &crate::progress::Silent).unwrap();
+    let sel = select(&s, &sol, Method::Local, &SelectSettings::default(), None).unwrap();
+    let st = settings(Method::Local);
+    let tracer = crate::render::Tracer::with_selection(&s, &bvh, &st, &sel);
+    let eye = Vec3::new(-0.3, 0.0, 0.9);
+    let wo = eye.normalize();
+    let ray = Ray::new(eye, -wo);
+    let n = 128000;
+    let mut c = crate::render::Counters::default();
+    let est: f32 = (0..n).map(|k| tracer.radiance(&ray, 0, k, &mut c).x).sum::<f32>() / n as f32;
+    // The image: the lamp mirrored in z = top, at 2 top - h, facing down.
+    let (m, z) = (400, 2.0 * top - h);
+    let mut want = 0.0f64;
+    for i in 0..m {
+        for j in 0..m {
+            let p = Vec3::new(
+                x0 + (x1 - x0) * (i as f32 + 0.5) / m as f32,
+                y0 + (y1 - y0) * (j as f32 + 0.5) / m as f32,
+                z,
+            );
+            let r2 = p.length_squared();
+            let wi = p / r2.sqrt();
+            want += f64::from(lobe.eval(wi, wo).x * le * wi.z * wi.z / r2);
+        }
+    }
+    let want = want as f32 * (x1 - x0) * (y1 - y0) / (m * m) as f32;
+    assert!(want > 0.05, "{want}");
+    assert!((est - want).abs() < 0.03 * want, "{est} vs {want}");
+}
