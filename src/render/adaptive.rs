@@ -22,7 +22,9 @@
 //!
 //! Refinement criteria (Sect. 6): *object* (samples hit different objects), *shadow*
 //! (a real point light is lit at one sample and shadowed at the other, read from the
-//! SIB) and *difference* (the display values differ by more than `contrast`). Level 1
+//! SIB) and *difference* (the display values differ by more than `contrast`, or,
+//! where they are white, the radiance by [`HDR_RATIO`] times: a light's image
+//! smaller than a pixel in a white surround). Level 1
 //! compares each pixel's sample with those of its eight neighbours; level L > 1
 //! compares the samples inside a pixel refined at level L - 1.
 //!
@@ -452,6 +454,11 @@ fn four_from(x0: i64, y0: i64, w: u32, h: u32, at: impl Fn(u32, u32) -> u32) -> 
     nb
 }
 
+/// Samples both white on the display differ when one has this many times the other's
+/// radiance (largest channel, before the exposure): the clipped display values cannot
+/// tell them apart.
+const HDR_RATIO: f32 = 16.0;
+
 /// Whether the refinement criteria fire among `samples` (each with its point bits,
 /// [`SampleSet::point_bits`]): object, shadow (a point or spot light lit at one,
 /// shadowed at another, whatever the number of lights) or difference.
@@ -461,6 +468,9 @@ where
 {
     let (mut object, mut words) = (None, 0);
     let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    // Radiance, where the display values are white: the brightest sample's and the
+    // dimmest's (largest channel).
+    let (mut dim, mut bright, mut white) = (f32::INFINITY, 0.0f32, false);
     for (s, bits) in samples.clone() {
         if *object.get_or_insert(s.object) != s.object {
             return true;
@@ -468,6 +478,16 @@ where
         words = bits.len() / 2;
         lo = lo.min(s.display);
         hi = hi.max(s.display);
+        let v = s.value.max_element();
+        dim = dim.min(v);
+        bright = bright.max(v);
+        white |= s.display.max_element() >= 1.0;
+    }
+    // Among samples white on the display, one many times brighter than another: a
+    // light's image smaller than the pixel (the sun in a mirror ball), which one
+    // sample would otherwise carry to the whole pixel.
+    if white && bright > HDR_RATIO * dim {
+        return true;
     }
     (0..words).any(|j| {
         let (mut lit, mut dark) = (0u64, 0u64);

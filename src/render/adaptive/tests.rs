@@ -236,6 +236,27 @@ fn the_difference_criterion_refines_only_where_values_differ() {
     // The display value is sRGB: mid grey 0.214 encodes to about 0.5.
     assert!((display(Vec3::splat(0.214), 0.0).x - 0.5).abs() < 0.002);
     assert_eq!(display(Vec3::splat(7.0), 0.0), Vec3::ONE);
+    // Both white on the display: alike there, but the sun's image in a mirror ball is
+    // hundreds of times its surroundings.
+    let (white, sun) = (
+        at(Vec3::splat(5.0), 0.0),
+        at(Vec3::new(8751.0, 7900.0, 6500.0), 0.0),
+    );
+    assert_eq!(white.display, sun.display);
+    assert!(differ([(&white, lit), (&sun, lit)], &r), "a light's image");
+    assert!(
+        !differ([(&white, lit), (&at(Vec3::splat(70.0), 0.0), lit)], &r),
+        "within 16 times"
+    );
+    // ...and where neither is white, the display values alone decide (two dark
+    // samples 20 times apart, within the contrast).
+    assert!(!differ(
+        [
+            (&at(Vec3::splat(1e-4), 0.0), lit),
+            (&at(Vec3::splat(2e-3), 0.0), lit)
+        ],
+        &r
+    ));
 }
 
 #[test]
