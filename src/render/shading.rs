@@ -863,6 +863,39 @@ mod tests {
         crate::testutil::scene_with(shapes, lights, &[])
     }
 
+    /// A rough silver lobe (GGX, alpha 0.3), its reflection scaled by `scale`.
+    fn rough_silver(scale: f32) -> crate::scene::Glossy {
+        use crate::scene::{Fresnel, Glossy, Microfacet};
+        Glossy {
+            distribution: Microfacet {
+                alpha_u: 0.3,
+                alpha_v: 0.3,
+                beckmann: false,
+            },
+            fresnel: Fresnel::Conductor {
+                eta: Vec3::new(1.66, 0.88, 0.52),
+                k: Vec3::new(9.2, 6.3, 4.8),
+            },
+            scale: Vec3::splat(scale),
+        }
+    }
+
+    /// `floor` under `lamp`, a black area light of radiance `le`, nothing else.
+    fn under_lamp(floor: (TriMesh, BsdfKind), lamp: TriMesh, le: f32) -> Scene {
+        let black = BsdfKind::Diffuse {
+            reflectance: Vec3::ZERO,
+        };
+        let mut s = scene(
+            vec![floor, (lamp, black)],
+            vec![Light::Area {
+                shape: 1,
+                radiance: Vec3::splat(le),
+            }],
+        );
+        s.shapes[1].emitter = Some(0);
+        s
+    }
+
     fn settings(area_samples: u32) -> Settings {
         Settings::direct_test(area_samples, 4)
     }
@@ -893,19 +926,7 @@ mod tests {
     /// blocker, none. The drawn rays meet nothing, so bring nothing.
     #[test]
     fn a_glossy_floor_reflects_a_point_light_by_its_lobe() {
-        use crate::scene::{Fresnel, Glossy, Microfacet};
-        let lobe = Glossy {
-            distribution: Microfacet {
-                alpha_u: 0.3,
-                alpha_v: 0.3,
-                beckmann: false,
-            },
-            fresnel: Fresnel::Conductor {
-                eta: Vec3::new(1.66, 0.88, 0.52),
-                k: Vec3::new(9.2, 6.3, 4.8),
-            },
-            scale: Vec3::splat(0.9),
-        };
+        let lobe = rough_silver(0.9);
         let (h, i) = (2.0f32, 10.0f32);
         let s = scene(
             vec![(square(10.0, 0.0, false), BsdfKind::RoughConductor { lobe })],
@@ -936,36 +957,13 @@ mod tests {
     /// single sample was jittered over the light).
     #[test]
     fn one_light_sample_at_a_glossy_hit_covers_the_whole_light() {
-        use crate::scene::{Fresnel, Glossy, Microfacet};
-        let lobe = Glossy {
-            distribution: Microfacet {
-                alpha_u: 0.3,
-                alpha_v: 0.3,
-                beckmann: false,
-            },
-            fresnel: Fresnel::Conductor {
-                eta: Vec3::new(1.66, 0.88, 0.52),
-                k: Vec3::new(9.2, 6.3, 4.8),
-            },
-            scale: Vec3::ONE,
-        };
+        let lobe = rough_silver(1.0);
         let (h, s_half, le) = (1.0f32, 0.25f32, 4.0f32);
-        let mut s = scene(
-            vec![
-                (square(10.0, 0.0, false), BsdfKind::RoughConductor { lobe }),
-                (
-                    square(s_half, h, true),
-                    BsdfKind::Diffuse {
-                        reflectance: Vec3::ZERO,
-                    },
-                ),
-            ],
-            vec![Light::Area {
-                shape: 1,
-                radiance: Vec3::splat(le),
-            }],
+        let s = under_lamp(
+            (square(10.0, 0.0, false), BsdfKind::RoughConductor { lobe }),
+            square(s_half, h, true),
+            le,
         );
-        s.shapes[1].emitter = Some(0);
         // Looking straight down at the origin: f(wi, z) Le cos_i cos_l / d^2 over
         // the square, by the midpoint rule on 256 x 256 cells.
         let cells = 256;
@@ -1048,22 +1046,7 @@ mod tests {
     #[test]
     fn disk_area_light_on_axis_matches_the_closed_form() {
         let (r, h, le) = (0.5f32, 1.0f32, 3.0f32);
-        let mut s = scene(
-            vec![
-                floor(),
-                (
-                    disk_down(r, h, 512),
-                    BsdfKind::Diffuse {
-                        reflectance: Vec3::ZERO,
-                    },
-                ),
-            ],
-            vec![Light::Area {
-                shape: 1,
-                radiance: Vec3::splat(le),
-            }],
-        );
-        s.shapes[1].emitter = Some(0);
+        let s = under_lamp(floor(), disk_down(r, h, 512), le);
         let (l, c) = look_down(&s, 0.0, 4096);
         let e = PI * le * r * r / (h * h + r * r);
         let expect = RHO / PI * e;

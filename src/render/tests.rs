@@ -659,23 +659,55 @@ fn a_texture_scales_what_a_surface_reflects_by_its_texel_over_its_vertices_mean(
     );
 }
 
+/// The radiance scene `s`, solved and selected with the defaults, sends from the origin
+/// towards `eye`, averaged over `n` render seeds.
+fn mean_radiance_at_origin(s: &Scene, eye: Vec3, n: u32) -> f32 {
+    let bvh = Bvh::build(s);
+    let sol = solve(s, &bvh, &solve_settings(0.2, 4), &crate::progress::Silent).unwrap();
+    let sel = select(s, &sol, Method::Local, &SelectSettings::default(), None).unwrap();
+    let st = settings(Method::Local);
+    let tracer = crate::render::Tracer::with_selection(s, &bvh, &st, &sel);
+    let ray = crate::accel::Ray::new(eye, -eye.normalize());
+    let mut c = crate::render::Counters::default();
+    (0..n).map(|k| tracer.radiance(&ray, 0, k, &mut c).x).sum::<f32>() / n as f32
+}
+
+/// What a horizontal lamp of radiance `le` over `[x0, x1] x [y0, y1]` at height `z`,
+/// facing down, sends from the origin towards `wo` by `brdf(wi, wo)`: Le x brdf x cos x
+/// cos / r^2 over the lamp, by the midpoint rule on 400 x 400 cells.
+fn lamp_integral(rect: [f32; 4], z: f32, le: f32, wo: Vec3, brdf: impl Fn(Vec3, Vec3) -> f32) -> f32 {
+    let [x0, x1, y0, y1] = rect;
+    let m = 400;
+    let mut want = 0.0f64;
+    for i in 0..m {
+        for j in 0..m {
+            let p = Vec3::new(
+                x0 + (x1 - x0) * (i as f32 + 0.5) / m as f32,
+                y0 + (y1 - y0) * (j as f32 + 0.5) / m as f32,
+                z,
+            );
+            let r2 = p.length_squared();
+            let wi = p / r2.sqrt();
+            want += f64::from(brdf(wi, wo) * le * wi.z * wi.z / r2);
+        }
+    }
+    want as f32 * (x1 - x0) * (y1 - y0) / (m * m) as f32
+}
+
 /// A 6 x 6 m floor of `floor` at z = 0 under a 0.4 x 0.4 m square lamp of radiance 5
 /// at height 1, nothing else, seen from (-0.5, 0, 1) towards the origin (so that the
 /// lamp sits in a lobe's peak): the radiance the tracer returns, averaged over 4000
 /// seeds, and a fine quadrature over the lamp of `brdf(wi, wo)` x Le x cos x cos / r^2.
 fn floor_under_a_lamp(floor: crate::scene::BsdfKind, brdf: impl Fn(Vec3, Vec3) -> f32) -> (f32, f32) {
-    use crate::accel::Ray;
-    use crate::geometry::TriMesh;
     use crate::scene::BsdfKind;
     use crate::testutil::{scene_with, square};
     let (x0, x1, y0, y1, h) = (0.3f32, 0.7, -0.2, 0.2, 1.0);
-    let lamp: TriMesh = square(x0, x1, y0, y1, h, true);
     let le = 5.0f32;
     let s = scene_with(
         vec![
             (square(-3.0, 3.0, -3.0, 3.0, 0.0, false), floor),
             (
-                lamp,
+                square(x0, x1, y0, y1, h, true),
                 BsdfKind::Diffuse {
                     reflectance: Vec3::ZERO,
                 },
@@ -684,32 +716,9 @@ fn floor_under_a_lamp(floor: crate::scene::BsdfKind, brdf: impl Fn(Vec3, Vec3) -
         vec![],
         &[(1, Vec3::splat(le))],
     );
-    let bvh = Bvh::build(&s);
-    let sol = solve(&s, &bvh, &solve_settings(0.2, 4), &crate::progress::Silent).unwrap();
-    let sel = select(&s, &sol, Method::Local, &SelectSettings::default(), None).unwrap();
-    let st = settings(Method::Local);
-    let tracer = crate::render::Tracer::with_selection(&s, &bvh, &st, &sel);
     let eye = Vec3::new(-0.5, 0.0, 1.0);
-    let wo = eye.normalize();
-    let ray = Ray::new(eye, -wo);
-    let n = 4000;
-    let mut c = crate::render::Counters::default();
-    let est: f32 = (0..n).map(|k| tracer.radiance(&ray, 0, k, &mut c).x).sum::<f32>() / n as f32;
-    let m = 400;
-    let mut want = 0.0f64;
-    for i in 0..m {
-        for j in 0..m {
-            let p = Vec3::new(
-                x0 + (x1 - x0) * (i as f32 + 0.5) / m as f32,
-                y0 + (y1 - y0) * (j as f32 + 0.5) / m as f32,
-                h,
-            );
-            let r2 = p.length_squared();
-            let wi = p / r2.sqrt();
-            want += f64::from(brdf(wi, wo) * le * wi.z * wi.z / r2);
-        }
-    }
-    (est, want as f32 * (x1 - x0) * (y1 - y0) / (m * m) as f32)
+    let est = mean_radiance_at_origin(&s, eye, 4000);
+    (est, lamp_integral([x0, x1, y0, y1], h, le, eye.normalize(), brdf))
 }
 
 /// A glossy floor under a small square lamp, nothing else: the radiance the floor
@@ -989,7 +998,6 @@ fn the_suns_disk_is_seen_directly_and_in_a_mirror_and_carries_its_irradiance() {
 /// down); before the lobe's rays counted a light met past a mirror, none of it.
 #[test]
 fn a_glossy_floor_reflects_a_lamps_image_in_a_mirror() {
-    use crate::accel::Ray;
     use crate::scene::{BsdfKind, Fresnel, Glossy, Microfacet};
     use crate::testutil::{scene_with, square};
     let lobe = Glossy {
@@ -1026,33 +1034,12 @@ fn a_glossy_floor_reflects_a_lamps_image_in_a_mirror() {
         vec![],
         &[(1, Vec3::splat(le))],
     );
-    let bvh = Bvh::build(&s);
-    let sol = solve(&s, &bvh, &solve_settings(0.2, 4), &crate::progress::Silent).unwrap();
-    let sel = select(&s, &sol, Method::Local, &SelectSettings::default(), None).unwrap();
-    let st = settings(Method::Local);
-    let tracer = crate::render::Tracer::with_selection(&s, &bvh, &st, &sel);
     let eye = Vec3::new(-0.3, 0.0, 0.9);
-    let wo = eye.normalize();
-    let ray = Ray::new(eye, -wo);
-    let n = 128000;
-    let mut c = crate::render::Counters::default();
-    let est: f32 = (0..n).map(|k| tracer.radiance(&ray, 0, k, &mut c).x).sum::<f32>() / n as f32;
+    let est = mean_radiance_at_origin(&s, eye, 128000);
     // The image: the lamp mirrored in z = top, at 2 top - h, facing down.
-    let (m, z) = (400, 2.0 * top - h);
-    let mut want = 0.0f64;
-    for i in 0..m {
-        for j in 0..m {
-            let p = Vec3::new(
-                x0 + (x1 - x0) * (i as f32 + 0.5) / m as f32,
-                y0 + (y1 - y0) * (j as f32 + 0.5) / m as f32,
-                z,
-            );
-            let r2 = p.length_squared();
-            let wi = p / r2.sqrt();
-            want += f64::from(lobe.eval(wi, wo).x * le * wi.z * wi.z / r2);
-        }
-    }
-    let want = want as f32 * (x1 - x0) * (y1 - y0) / (m * m) as f32;
+    let want = lamp_integral([x0, x1, y0, y1], 2.0 * top - h, le, eye.normalize(), |wi, wo| {
+        lobe.eval(wi, wo).x
+    });
     assert!(want > 0.05, "{want}");
     assert!((est - want).abs() < 0.03 * want, "{est} vs {want}");
 }
