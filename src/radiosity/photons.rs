@@ -280,6 +280,11 @@ impl<'a> Tracer<'a> {
                     crossed = !thick;
                     if thick {
                         match std::mem::replace(&mut inside, InGlass::Out) {
+                            // Leaving glass it started in (a lamp inside a solid
+                            // glass globe): the shots' shadow rays end inside that
+                            // glass and count the crossing, so the photon keeps
+                            // what they hold (it counted the lamp's light twice).
+                            InGlass::Out if !sp.front => crossed = true,
                             InGlass::Out => {
                                 inside = InGlass::Entered {
                                     face: sp.ng,

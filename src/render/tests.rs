@@ -659,11 +659,11 @@ fn a_texture_scales_what_a_surface_reflects_by_its_texel_over_its_vertices_mean(
     );
 }
 
-/// The radiance scene `s`, solved and selected with the defaults, sends from the origin
-/// towards `eye`, averaged over `n` render seeds.
-fn mean_radiance_at_origin(s: &Scene, eye: Vec3, n: u32) -> f32 {
+/// The radiance scene `s`, solved with `solve_st` and selected with the defaults, sends
+/// from the origin towards `eye`, averaged over `n` render seeds.
+fn mean_radiance_at_origin(s: &Scene, solve_st: &SolveSettings, eye: Vec3, n: u32) -> f32 {
     let bvh = Bvh::build(s);
-    let sol = solve(s, &bvh, &solve_settings(0.2, 4), &crate::progress::Silent).unwrap();
+    let sol = solve(s, &bvh, solve_st, &crate::progress::Silent).unwrap();
     let sel = select(s, &sol, Method::Local, &SelectSettings::default(), None).unwrap();
     let st = settings(Method::Local);
     let tracer = crate::render::Tracer::with_selection(s, &bvh, &st, &sel);
@@ -717,7 +717,7 @@ fn floor_under_a_lamp(floor: crate::scene::BsdfKind, brdf: impl Fn(Vec3, Vec3) -
         &[(1, Vec3::splat(le))],
     );
     let eye = Vec3::new(-0.5, 0.0, 1.0);
-    let est = mean_radiance_at_origin(&s, eye, 4000);
+    let est = mean_radiance_at_origin(&s, &solve_settings(0.2, 4), eye, 4000);
     (est, lamp_integral([x0, x1, y0, y1], h, le, eye.normalize(), brdf))
 }
 
@@ -1035,11 +1035,48 @@ fn a_glossy_floor_reflects_a_lamps_image_in_a_mirror() {
         &[(1, Vec3::splat(le))],
     );
     let eye = Vec3::new(-0.3, 0.0, 0.9);
-    let est = mean_radiance_at_origin(&s, eye, 128000);
+    let est = mean_radiance_at_origin(&s, &solve_settings(0.2, 4), eye, 128000);
     // The image: the lamp mirrored in z = top, at 2 top - h, facing down.
     let want = lamp_integral([x0, x1, y0, y1], 2.0 * top - h, le, eye.normalize(), |wi, wo| {
         lobe.eval(wi, wo).x
     });
     assert!(want > 0.05, "{want}");
     assert!((est - want).abs() < 0.03 * want, "{est} vs {want}");
+}
+
+/// A lamp inside a glass cube as clear as air (index 1.0001) lights the floor as the
+/// bare lamp does: the shots' shadow rays end inside the glass and count its
+/// crossing, and the photons that leave the glass the lamp sits in keep to that (they
+/// counted its light a second time: the floor twice as bright).
+#[test]
+fn a_lamp_inside_clear_glass_lights_the_floor_as_the_bare_lamp() {
+    let radiance = |glass: &str| {
+        let xml = format!(
+            r#"<scene version="3.0.0">
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf></shape>
+  <shape type="sphere"><point name="center" x="0" y="1" z="0"/><float name="radius" value="0.05"/>
+    <emitter type="area"><rgb name="radiance" value="20"/></emitter></shape>
+  {glass}
+  <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
+</scene>"#
+        );
+        let s = crate::scene::xml::load_str(std::path::Path::new("clear.xml"), &xml, &[])
+            .unwrap()
+            .scene;
+        // With photons, which carry what the glass passes on.
+        let st = SolveSettings {
+            photons: 64,
+            ..solve_settings(0.2, 4)
+        };
+        mean_radiance_at_origin(&s, &st, Vec3::new(0.6, 0.5, 0.0), 64)
+    };
+    let bare = radiance("");
+    let boxed = radiance(
+        r#"<shape type="cube"><transform name="to_world"><scale value="0.2"/><translate y="1"/></transform>
+    <bsdf type="dielectric"><float name="int_ior" value="1.0001"/></bsdf></shape>"#,
+    );
+    // The bare lamp's closed form: rho / pi x L pi (r / d)^2 = 0.5 x 20 x 0.05^2.
+    assert!((bare / 0.025 - 1.0).abs() < 0.03, "{bare}");
+    assert!((boxed / bare - 1.0).abs() < 0.03, "{boxed} against {bare}");
 }
