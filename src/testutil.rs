@@ -258,3 +258,25 @@ pub fn texture_on(s: &mut Scene, bsdf: usize, field: crate::scene::TexField, t: 
     let k = s.textures.len() as u32 - 1;
     s.bsdfs[bsdf].textures.push(slot(field, k));
 }
+
+/// What a horizontal lamp of radiance `le` over `[x0, x1] x [y0, y1]` at height `z`,
+/// facing down, sends from the origin towards `wo` by `brdf(wi, wo)`: Le x brdf x cos x
+/// cos / r^2 over the lamp, by the midpoint rule on 400 x 400 cells.
+pub fn lamp_integral(rect: [f32; 4], z: f32, le: f32, wo: Vec3, brdf: impl Fn(Vec3, Vec3) -> f32) -> f32 {
+    let [x0, x1, y0, y1] = rect;
+    let m = 400;
+    let mut want = 0.0f64;
+    for i in 0..m {
+        for j in 0..m {
+            let p = Vec3::new(
+                x0 + (x1 - x0) * (i as f32 + 0.5) / m as f32,
+                y0 + (y1 - y0) * (j as f32 + 0.5) / m as f32,
+                z,
+            );
+            let r2 = p.length_squared();
+            let wi = p / r2.sqrt();
+            want += f64::from(brdf(wi, wo) * le * wi.z * wi.z / r2);
+        }
+    }
+    want as f32 * (x1 - x0) * (y1 - y0) / (m * m) as f32
+}

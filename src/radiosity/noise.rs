@@ -99,18 +99,19 @@ impl Halves {
                 *s = n as f32 / t as f32;
             }
         }
-        // Per vertex: its shot light and the two halves' estimates.
-        let halves = |v: usize| {
-            let (mut x, mut y) = (0.0, 0.0);
-            for (light, scale) in self.light.iter().zip(&scale) {
-                x += light[0][v] * scale[0];
-                y += light[1][v] * scale[1];
-            }
-            (x, y)
-        };
+        // Per vertex: the two halves' estimates.
+        let halves: Vec<(f32, f32)> = (0..shot.len())
+            .map(|v| {
+                let (mut x, mut y) = (0.0, 0.0);
+                for (light, scale) in self.light.iter().zip(&scale) {
+                    x += light[0][v] * scale[0];
+                    y += light[1][v] * scale[1];
+                }
+                (x, y)
+            })
+            .collect();
         let (mut sum, mut weight, mut lit) = (0.0f64, 0.0f64, 0.0f64);
-        for (v, (&s, &a)) in shot.iter().zip(area).enumerate() {
-            let (x, y) = halves(v);
+        for ((&s, &a), &(x, y)) in shot.iter().zip(area).zip(&halves) {
             let total = s + 0.5 * (x + y);
             if total > 0.0 && a > 0.0 {
                 sum += f64::from(a * (0.5 * (x - y).abs() / total).min(1.0));
@@ -122,8 +123,7 @@ impl Halves {
             return None;
         }
         let mean_light = (lit / weight) as f32;
-        let spike = shot.iter().zip(area).enumerate().any(|(v, (&s, &a))| {
-            let (x, y) = halves(v);
+        let spike = shot.iter().zip(area).zip(&halves).any(|((&s, &a), &(x, y))| {
             a > 0.0 && x.max(y) > SPIKE * (x.min(y) + s) && s + 0.5 * (x + y) > mean_light
         });
         Some(if spike { 1.0 } else { (sum / weight) as f32 })

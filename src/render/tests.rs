@@ -672,28 +672,6 @@ fn mean_radiance_at_origin(s: &Scene, solve_st: &SolveSettings, eye: Vec3, n: u3
     (0..n).map(|k| tracer.radiance(&ray, 0, k, &mut c).x).sum::<f32>() / n as f32
 }
 
-/// What a horizontal lamp of radiance `le` over `[x0, x1] x [y0, y1]` at height `z`,
-/// facing down, sends from the origin towards `wo` by `brdf(wi, wo)`: Le x brdf x cos x
-/// cos / r^2 over the lamp, by the midpoint rule on 400 x 400 cells.
-fn lamp_integral(rect: [f32; 4], z: f32, le: f32, wo: Vec3, brdf: impl Fn(Vec3, Vec3) -> f32) -> f32 {
-    let [x0, x1, y0, y1] = rect;
-    let m = 400;
-    let mut want = 0.0f64;
-    for i in 0..m {
-        for j in 0..m {
-            let p = Vec3::new(
-                x0 + (x1 - x0) * (i as f32 + 0.5) / m as f32,
-                y0 + (y1 - y0) * (j as f32 + 0.5) / m as f32,
-                z,
-            );
-            let r2 = p.length_squared();
-            let wi = p / r2.sqrt();
-            want += f64::from(brdf(wi, wo) * le * wi.z * wi.z / r2);
-        }
-    }
-    want as f32 * (x1 - x0) * (y1 - y0) / (m * m) as f32
-}
-
 /// A 6 x 6 m floor of `floor` at z = 0 under a 0.4 x 0.4 m square lamp of radiance 5
 /// at height 1, nothing else, seen from (-0.5, 0, 1) towards the origin (so that the
 /// lamp sits in a lobe's peak): the radiance the tracer returns, averaged over 4000
@@ -718,7 +696,10 @@ fn floor_under_a_lamp(floor: crate::scene::BsdfKind, brdf: impl Fn(Vec3, Vec3) -
     );
     let eye = Vec3::new(-0.5, 0.0, 1.0);
     let est = mean_radiance_at_origin(&s, &solve_settings(0.2, 4), eye, 4000);
-    (est, lamp_integral([x0, x1, y0, y1], h, le, eye.normalize(), brdf))
+    (
+        est,
+        crate::testutil::lamp_integral([x0, x1, y0, y1], h, le, eye.normalize(), brdf),
+    )
 }
 
 /// A glossy floor under a small square lamp, nothing else: the radiance the floor
@@ -1037,9 +1018,10 @@ fn a_glossy_floor_reflects_a_lamps_image_in_a_mirror() {
     let eye = Vec3::new(-0.3, 0.0, 0.9);
     let est = mean_radiance_at_origin(&s, &solve_settings(0.2, 4), eye, 128000);
     // The image: the lamp mirrored in z = top, at 2 top - h, facing down.
-    let want = lamp_integral([x0, x1, y0, y1], 2.0 * top - h, le, eye.normalize(), |wi, wo| {
-        lobe.eval(wi, wo).x
-    });
+    let want =
+        crate::testutil::lamp_integral([x0, x1, y0, y1], 2.0 * top - h, le, eye.normalize(), |wi, wo| {
+            lobe.eval(wi, wo).x
+        });
     assert!(want > 0.05, "{want}");
     assert!((est - want).abs() < 0.03 * want, "{est} vs {want}");
 }
