@@ -157,9 +157,7 @@ impl Texture {
             mips: Vec::new(),
         };
         let mut sum = glam::DVec3::ZERO;
-        for k in 0..n {
-            sum += t.texel_at(k).as_dvec3();
-        }
+        t.each_linear(|v| sum += Vec3::from_array(v).as_dvec3());
         t.mean = (sum / n as f64).as_vec3();
         Ok(t)
     }
@@ -233,6 +231,19 @@ impl Texture {
         (self.width, self.height)
     }
 
+    /// Calls `f` with every texel's linear value, in order (the texel format
+    /// matched once, not per texel: that was most of a large texture's load time).
+    fn each_linear(&self, mut f: impl FnMut([f32; 3])) {
+        match &self.texels {
+            Texels::Srgb8(t) => {
+                let srgb: &[f32; 256] = &SRGB;
+                t.iter().for_each(|p| f(p.map(|b| srgb[b as usize])));
+            }
+            Texels::Linear8(t) => t.iter().for_each(|p| f(p.map(|b| f32::from(b) / 255.0))),
+            Texels::Float(t) => t.iter().for_each(|p| f(*p)),
+        }
+    }
+
     fn texel_at(&self, k: usize) -> Rgb {
         match &self.texels {
             Texels::Srgb8(t) => Vec3::from_array(t[k].map(|b| SRGB[b as usize])),
@@ -301,9 +312,8 @@ impl Texture {
             return;
         }
         let (mut w, mut h) = (self.width, self.height);
-        let image: Vec<[f32; 3]> = (0..(w * h) as usize)
-            .map(|k| self.texel_at(k).to_array())
-            .collect();
+        let mut image: Vec<[f32; 3]> = Vec::with_capacity((w * h) as usize);
+        self.each_linear(|v| image.push(v));
         while w > 1 || h > 1 {
             let prev = self.mips.last().map_or(&image, |m| &m.texels);
             let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));

@@ -49,7 +49,7 @@ const KNOWN_INTEGRATORS: &[&str] = &[
 #[derive(Clone, Copy)]
 pub(super) struct Src<'a, 'i> {
     path: &'a Path,
-    doc: &'a Document<'i>,
+    pub(super) doc: &'a Document<'i>,
     /// The file is a Mitsuba 0.6 (or older) scene: its names are upgraded as Mitsuba
     /// 3 upgrades them ([`Loader::prop_name`]).
     pub(super) legacy: bool,
@@ -111,6 +111,10 @@ pub(super) struct Loader {
     pub(super) notes: Vec<String>,
     /// Image files read, with their `raw` flag: their index in the scene's textures.
     pub(super) images: HashMap<(PathBuf, bool), u32>,
+    /// Image files read ahead, in parallel, before the walk reaches them
+    /// ([`Loader::read_images_ahead`]), by path and `raw` flag.
+    pub(super) read_ahead:
+        HashMap<(PathBuf, bool), std::result::Result<crate::scene::texture::Texture, String>>,
     /// Folders that `<path>` elements named, the latest first: searched for files
     /// before the scene's own folders, as Mitsuba's file resolver does.
     search: Vec<PathBuf>,
@@ -156,6 +160,7 @@ impl Loader {
             legacy: false,
             notes: Vec::new(),
             images: HashMap::new(),
+            read_ahead: HashMap::new(),
             search: Vec::new(),
         }
     }
@@ -294,15 +299,15 @@ impl Loader {
             ));
         }
         let outer = std::mem::replace(&mut self.legacy, legacy);
-        let r = self.load_root(
-            Src {
-                path,
-                doc: &doc,
-                legacy,
-            },
-            top,
-        );
+        let s = Src {
+            path,
+            doc: &doc,
+            legacy,
+        };
+        self.read_images_ahead(s);
+        let r = self.load_root(s, top);
         self.legacy = outer;
+        self.read_ahead.clear();
         r
     }
 

@@ -7,7 +7,7 @@ use roxmltree::Node;
 use super::document::{Loader, Src};
 use super::properties::Target;
 use crate::scene::sunsky::{self, SunPlace, SunSky};
-use crate::scene::{Light, Rgb, Texture};
+use crate::scene::{Light, Rgb};
 use crate::Result;
 
 impl Loader {
@@ -163,7 +163,8 @@ impl Loader {
                     for p in ["gamma", "cache", "sampling_weight"] {
                         obj.get(p);
                     }
-                    let t = Texture::load(&path, false)
+                    let t = self
+                        .image(&path, false)
                         .map_err(|m| obj.err_param("filename", format!("= '{fname}': {m}")))?;
                     let (w, h) = t.size();
                     if w < 2 || h < 3 {

@@ -2083,6 +2083,56 @@ fn a_bitmap_texture_gives_the_reflectance_texel_by_texel() {
     assert_eq!(s.shapes[0].mesh.uvs[0], glam::Vec2::new(0.0, 1.0));
 }
 
+/// Images are read ahead of the walk only where the file and `raw` are written out;
+/// where a `$` parameter gives either, the walk reads the image itself. Both ways
+/// give the same texels: the byte 128 sRGB-decoded (0.2158605) unless `raw`
+/// (128 / 255), though the read ahead guessed `raw` false for `$r`.
+#[test]
+fn images_read_ahead_or_in_the_walk_are_the_same() {
+    let dir = tempfile::tempdir().unwrap();
+    write_png(dir.path(), "t.png", [128, 128, 128], [128, 128, 128]);
+    let bitmap = |file: &str, raw: &str| {
+        format!(
+            r#"<bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="{file}"/><boolean name="raw" value="{raw}"/></texture></bsdf>"#
+        )
+    };
+    let shapes: Vec<String> = [
+        ("t.png", "false"),
+        ("$f", "false"),
+        ("t.png", "$r"),
+        ("$f", "true"),
+    ]
+    .iter()
+    .map(|(f, r)| format!(r#"<shape type="rectangle">{}</shape>"#, bitmap(f, r)))
+    .collect();
+    let mut lines = vec![
+        r#"<default name="f" value="t.png"/>"#,
+        r#"<default name="r" value="true"/>"#,
+    ];
+    lines.extend(shapes.iter().map(String::as_str));
+    let path = dir.path().join("scene.xml");
+    fs::write(&path, scene(&lines)).unwrap();
+    let s = load(&path, &[]).unwrap().scene;
+    let reflectance = |k: usize| match s.bsdfs[s.shapes[k].bsdf as usize].kind {
+        BsdfKind::Diffuse { reflectance } => reflectance.x,
+        ref k => panic!("{k:?}"),
+    };
+    for (k, want) in [
+        (0, 0.215_860_5),
+        (1, 0.215_860_5),
+        (2, 128.0 / 255.0),
+        (3, 128.0 / 255.0),
+    ] {
+        assert!(
+            (reflectance(k) - want).abs() < 1e-6,
+            "shape {k}: {} vs {want}",
+            reflectance(k)
+        );
+    }
+    // One texture for each of the two ways to read the file.
+    assert_eq!(s.textures.len(), 2);
+}
+
 /// Bad textures: a file that is no image, a missing file, an unknown wrap mode or
 /// filter: one error naming the scene file and the line of the parameter.
 #[test]
