@@ -498,15 +498,26 @@ fn area_emitter_links_shape_and_light() {
     assert_eq!(l.scene.bsdfs.len(), 2);
 }
 
+/// Emitters radtrace cannot render as written warn, naming the line: a projector, a
+/// point of zero intensity, and an area light whose radiance is a texture, which
+/// shines its mean (a checkerboard of 4 and 2: 3) all over.
 #[test]
 fn unsupported_emitters_warn() {
     let l = ok(&[
         r#"<emitter type="projector"/>"#,
         r#"<emitter type="point"><rgb name="intensity" value="0"/></emitter>"#,
+        r#"<shape type="rectangle"><emitter type="area">"#,
+        r#"<texture type="checkerboard" name="radiance"><rgb name="color0" value="4"/><rgb name="color1" value="2"/></texture>"#,
+        r#"</emitter></shape>"#,
     ]);
-    assert_eq!(l.scene.lights.len(), 1);
+    assert_eq!(l.scene.lights.len(), 2);
     assert!(has_warning(&l, 3, "'projector'"));
     assert!(has_warning(&l, 4, "zero intensity"));
+    assert!(has_warning(&l, 6, "a texture as 'radiance' is not supported"));
+    match &l.scene.lights[1] {
+        Light::Area { radiance, .. } => assert_eq!(*radiance, Vec3::splat(3.0)),
+        other => panic!("{other:?}"),
+    }
 }
 
 /// The sun and the sky: `directional` from `direction` or `to_world` (+z), `constant`,
