@@ -398,6 +398,8 @@ impl Loader {
         for &name in names {
             let Some(p) = obj.get(name) else { continue };
             if let Val::Texture(t) = p.val {
+                // Warned about here, not again by `finish`.
+                p.textured.set(true);
                 let mean = t
                     .mean
                     .map_or(String::new(), |m| format!(" ({:.3})", m.element_sum() / 3.0));

@@ -5,7 +5,7 @@ use glam::{Mat4, Vec3};
 use roxmltree::Node;
 
 use super::document::{Loader, Src};
-use super::properties::{Obj, Target, TexVal, Val};
+use super::properties::Target;
 use crate::scene::sunsky::{self, SunPlace, SunSky};
 use crate::scene::{Light, Rgb};
 use crate::Result;
@@ -26,27 +26,9 @@ impl Loader {
             return Ok(None);
         }
         let obj = self.collect(s, c, "emitter 'area'".into())?;
-        let radiance = self.emission(&obj, "radiance")?;
+        let radiance = obj.emission("radiance")?;
         self.finish(&obj);
         Ok(Some(radiance))
-    }
-
-    /// An emitter's radiance, intensity or irradiance `name`. An image texture there
-    /// (a screen, a lamp's pattern) shines its mean all over, with a warning:
-    /// radtrace's lights are one colour over their surface.
-    fn emission(&mut self, obj: &Obj, name: &str) -> Result<Rgb> {
-        let value = obj.emission(name)?;
-        let textured = obj
-            .props()
-            .find(|p| p.name == name && matches!(p.val, Val::Texture(TexVal { image: Some(_), .. })));
-        if let Some(p) = textured {
-            let msg = format!(
-                "{}: a texture as '{name}' is not supported: the light shines its mean ({:.4}, {:.4}, {:.4}) all over",
-                obj.what, value.x, value.y, value.z
-            );
-            self.warn(obj.src, p.node, msg);
-        }
-        Ok(value)
     }
 
     /// Adds `light` with its `id` (for tables and messages).
@@ -77,7 +59,7 @@ impl Loader {
                     (None, Some(m)) => m.transform_point3(Vec3::ZERO),
                     (None, None) => Vec3::ZERO,
                 };
-                let intensity = self.emission(&obj, "intensity")?;
+                let intensity = obj.emission("intensity")?;
                 self.finish(&obj);
                 if intensity == Vec3::ZERO {
                     self.warn(s, c, "point light with zero intensity");
@@ -95,7 +77,7 @@ impl Loader {
                 let direction = axis
                     .try_normalize()
                     .ok_or_else(|| obj.err_param("to_world", "maps the spot's axis (+z) to nothing"))?;
-                let intensity = self.emission(&obj, "intensity")?;
+                let intensity = obj.emission("intensity")?;
                 let cutoff = obj.float("cutoff_angle")?.unwrap_or(20.0);
                 if !(cutoff > 0.0 && cutoff <= 180.0) {
                     return Err(
@@ -146,7 +128,7 @@ impl Loader {
                 let direction = dir
                     .try_normalize()
                     .ok_or_else(|| obj.err_param("direction", "is the zero vector"))?;
-                let irradiance = self.emission(&obj, "irradiance")?;
+                let irradiance = obj.emission("irradiance")?;
                 self.finish(&obj);
                 if irradiance == Vec3::ZERO {
                     self.warn(s, c, "directional light with zero irradiance");
@@ -170,7 +152,7 @@ impl Loader {
                 // A sky photograph's sun, split off ([`hdr_sun`]).
                 let mut sun = None;
                 let (radiance, texture) = if ty == "constant" {
-                    (self.emission(&obj, "radiance")?, None)
+                    (obj.emission("radiance")?, None)
                 } else {
                     let (path, fname) = self.file_param(&obj, "filename")?;
                     let scale = obj.float("scale")?.unwrap_or(1.0);

@@ -75,6 +75,8 @@ pub(super) struct Prop<'a, 'i> {
     pub(super) val: Val,
     pub(super) node: Node<'a, 'i>,
     used: Cell<bool>,
+    /// An image texture given here was taken as one (not only as its mean).
+    pub(super) textured: Cell<bool>,
 }
 
 /// A nested object of a plugin: an element, or a `<ref>` already resolved.
@@ -277,6 +279,9 @@ impl Loader {
     }
 
     /// Warns about every parameter of `obj` that no one read.
+    /// Warns about the parameters `obj` did not read, and about image textures that
+    /// it read only as their mean (a roughness map, a glass's transmittance map, a
+    /// light's radiance): those are the same all over the surface here.
     pub(super) fn finish(&mut self, obj: &Obj) {
         for p in &obj.props {
             if !p.used.get() {
@@ -284,6 +289,22 @@ impl Loader {
                     obj.src,
                     p.node,
                     format!("unknown parameter '{}' of {} ignored", p.name, obj.what),
+                );
+            } else if let (
+                Val::Texture(TexVal {
+                    image: Some(_),
+                    mean: Some(m),
+                }),
+                false,
+            ) = (&p.val, p.textured.get())
+            {
+                self.warn(
+                    obj.src,
+                    p.node,
+                    format!(
+                        "{}: a texture as '{}' is not supported: its mean ({:.4}, {:.4}, {:.4}) is used all over",
+                        obj.what, p.name, m.x, m.y, m.z
+                    ),
                 );
             }
         }
@@ -395,6 +416,7 @@ fn push_prop<'a, 'i>(obj: &mut Obj<'a, 'i>, name: String, val: Val, node: Node<'
         val,
         node,
         used: Cell::new(false),
+        textured: Cell::new(false),
     });
     Ok(())
 }

@@ -498,24 +498,57 @@ fn area_emitter_links_shape_and_light() {
     assert_eq!(l.scene.bsdfs.len(), 2);
 }
 
-/// Emitters radtrace cannot render as written warn, naming the line: a projector, a
-/// point of zero intensity, and an area light whose radiance is a texture, which
-/// shines its mean (a checkerboard of 4 and 2: 3) all over.
 #[test]
 fn unsupported_emitters_warn() {
     let l = ok(&[
         r#"<emitter type="projector"/>"#,
         r#"<emitter type="point"><rgb name="intensity" value="0"/></emitter>"#,
-        r#"<shape type="rectangle"><emitter type="area">"#,
-        r#"<texture type="checkerboard" name="radiance"><rgb name="color0" value="4"/><rgb name="color1" value="2"/></texture>"#,
-        r#"</emitter></shape>"#,
     ]);
-    assert_eq!(l.scene.lights.len(), 2);
+    assert_eq!(l.scene.lights.len(), 1);
     assert!(has_warning(&l, 3, "'projector'"));
     assert!(has_warning(&l, 4, "zero intensity"));
-    assert!(has_warning(&l, 6, "a texture as 'radiance' is not supported"));
-    match &l.scene.lights[1] {
-        Light::Area { radiance, .. } => assert_eq!(*radiance, Vec3::splat(3.0)),
+}
+
+/// An image texture where radtrace takes only its mean warns, naming the line: an
+/// area light's radiance (a checkerboard of 4 and 2 shines 3 all over) and a
+/// dielectric's transmittance. A diffuse reflectance texture, read texel by texel,
+/// does not.
+#[test]
+fn textures_taken_as_their_mean_warn() {
+    let checker = |name: &str| {
+        format!(
+            r#"<texture type="checkerboard" name="{name}"><rgb name="color0" value="0.8"/><rgb name="color1" value="0.4"/></texture>"#
+        )
+    };
+    let (radiance, glass, diffuse) = (
+        checker("radiance"),
+        checker("specular_transmittance"),
+        checker("reflectance"),
+    );
+    let l = ok(&[
+        r#"<shape type="rectangle"><emitter type="area">"#,
+        &radiance.replace("0.8", "4").replace("0.4", "2"),
+        r#"</emitter></shape>"#,
+        r#"<shape type="cube"><bsdf type="dielectric">"#,
+        &glass,
+        r#"</bsdf></shape>"#,
+        r#"<shape type="cube"><bsdf type="diffuse">"#,
+        &diffuse,
+        r#"</bsdf></shape>"#,
+    ]);
+    assert!(has_warning(
+        &l,
+        4,
+        "a texture as 'radiance' is not supported: its mean (3.0000"
+    ));
+    assert!(has_warning(
+        &l,
+        7,
+        "a texture as 'specular_transmittance' is not supported"
+    ));
+    assert_eq!(l.warnings.len(), 2, "{:?}", l.warnings);
+    match &l.scene.lights[..] {
+        [Light::Area { radiance, .. }] => assert_eq!(*radiance, Vec3::splat(3.0)),
         other => panic!("{other:?}"),
     }
 }

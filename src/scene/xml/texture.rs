@@ -78,7 +78,9 @@ impl Obj<'_, '_> {
     /// The image texture that gives parameter `name`, if one does (its index in the
     /// scene's textures).
     pub(super) fn texture_image(&self, name: &str) -> Option<u32> {
-        match self.get(name)?.val {
+        let p = self.get(name)?;
+        p.textured.set(true);
+        match p.val {
             Val::Texture(t) => t.image,
             _ => None,
         }
@@ -88,10 +90,12 @@ impl Obj<'_, '_> {
 impl<'a, 'i> Obj<'a, 'i> {
     /// The first texture among the parameters, whatever its name (a `bumpmap`'s).
     pub(super) fn any_texture(&self) -> Option<(&Prop<'a, 'i>, TexVal)> {
-        self.props().find_map(|p| match p.val {
+        let (p, t) = self.props().find_map(|p| match p.val {
             Val::Texture(t) => Some((p, t)),
             _ => None,
-        })
+        })?;
+        p.textured.set(true);
+        Some((p, t))
     }
 }
 
