@@ -307,7 +307,11 @@ impl Loader {
         self.read_images_ahead(s);
         let r = self.load_root(s, top);
         self.legacy = outer;
-        self.read_ahead.clear();
+        if top {
+            // Images read ahead that the walk did not take (an included file's
+            // walk leaves those of the files around it).
+            self.read_ahead.clear();
+        }
         r
     }
 
