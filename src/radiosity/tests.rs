@@ -243,6 +243,49 @@ fn a_point_beside_a_wall_reads_the_light_of_its_own_side() {
     assert_eq!(plain, seen, "the lit side");
 }
 
+/// [`Parted`]'s reads drop a hidden vertex only where its light is more than
+/// `CONTRAST` (2) times what the seen ones give: another room's light, not the far
+/// side of a chair's leg (dropping every brighter one made the conference room 1 %
+/// darker). On [`two_rooms_under_one_floor`]'s mesh, with a field of light made up
+/// (left of the wall 0.6 or 1.0 by z, 1.5 right of it, or 3.0): read at x = 1.40,
+/// beside the wall, the right-hand vertices (1.5) stay in the interpolation, which
+/// the seen ones alone would not give; at 3.0 they are dropped.
+#[test]
+fn a_point_beside_an_obstacle_drops_only_vertices_far_brighter_than_its_own() {
+    let (s, sol, _, _) = two_rooms_under_one_floor(&settings(0.4, 16, 100));
+    let bvh = Bvh::build(&s);
+    let field = |right: f32| -> Vec<Rgb> {
+        sol.mesh
+            .vertices
+            .iter()
+            .map(|vx| {
+                Vec3::splat(match (vx.p.x < 1.5, vx.p.z < 0.5) {
+                    (true, true) => 0.6,
+                    (true, false) => 1.0,
+                    (false, _) => right,
+                })
+            })
+            .collect()
+    };
+    let read = |right: f32| {
+        let f = field(right);
+        let parted = Parted::new(&sol.mesh, &bvh, f.clone());
+        let ray = crate::accel::Ray::new(v(1.40, 0.5, 0.6), v(0.0, -1.0, 0.0));
+        let hit = bvh.intersect(&ray).expect("the floor");
+        let p = ray.at(hit.t);
+        let mut w = sol.mesh.locate(&s, &hit, p, true);
+        let plain = w.apply(&f).x;
+        parted.keep_visible(&sol.mesh, &bvh, &mut w, p);
+        (plain, w.apply(&f).x)
+    };
+    let (plain, seen) = read(1.5);
+    assert!(plain > 1.0, "interpolated {plain}");
+    assert_eq!(plain, seen, "a hidden vertex within twice the seen ones' light");
+    let (plain, seen) = read(3.0);
+    assert!(plain > 1.0, "interpolated {plain}");
+    assert!(seen <= 1.0, "read {seen}: the other room's vertices dropped");
+}
+
 /// A closed cube whose faces all emit radiosity E and reflect rho: the reflected
 /// radiosity converges to rho E / (1 - rho) (total E / (1 - rho)).
 #[test]
