@@ -211,6 +211,25 @@ fn a_wall_keeps_the_light_of_photons_from_patches_that_span_two_rooms_in_its_roo
     );
 }
 
+/// `field` read on the floor below `above` (looking down): interpolated, and as
+/// [`Parted`] reads it (the render's and the gather's reads).
+fn read_floor(
+    s: &Scene,
+    sol: &Solution,
+    bvh: &Bvh,
+    parted: &Parted,
+    field: &[Rgb],
+    above: Vec3,
+) -> (f32, f32) {
+    let ray = crate::accel::Ray::new(above, v(0.0, -1.0, 0.0));
+    let hit = bvh.intersect(&ray).expect("the floor");
+    let p = ray.at(hit.t);
+    let mut w = sol.mesh.locate(s, &hit, p, true);
+    let plain = w.apply(field).x;
+    parted.keep_visible(&sol.mesh, bvh, &mut w, p);
+    (plain, w.apply(field).x)
+}
+
 /// [`two_rooms_under_one_floor`] on elements four times the wall's thickness, read
 /// on the dark side of the wall, 5 cm from it: the floor's element there runs under
 /// the wall to a vertex on the lit side, and its interpolated light is a quarter of
@@ -224,15 +243,7 @@ fn a_point_beside_a_wall_reads_the_light_of_its_own_side() {
     let bvh = Bvh::build(&s);
     let total = sol.total();
     let parted = Parted::new(&sol.mesh, &bvh, total.clone());
-    let read = |x: f32| {
-        let ray = crate::accel::Ray::new(v(x, 0.5, 0.5), v(0.0, -1.0, 0.0));
-        let hit = bvh.intersect(&ray).expect("the floor");
-        let p = ray.at(hit.t);
-        let mut w = sol.mesh.locate(&s, &hit, p, true);
-        let plain = w.apply(&total).x;
-        parted.keep_visible(&sol.mesh, &bvh, &mut w, p);
-        (plain, w.apply(&total).x)
-    };
+    let read = |x: f32| read_floor(&s, &sol, &bvh, &parted, &total, v(x, 0.5, 0.5));
     let (plain, seen) = read(1.40);
     assert!(
         plain > 0.1 * right,
@@ -270,13 +281,7 @@ fn a_point_beside_an_obstacle_drops_only_vertices_far_brighter_than_its_own() {
     let read = |right: f32| {
         let f = field(right);
         let parted = Parted::new(&sol.mesh, &bvh, f.clone());
-        let ray = crate::accel::Ray::new(v(1.40, 0.5, 0.6), v(0.0, -1.0, 0.0));
-        let hit = bvh.intersect(&ray).expect("the floor");
-        let p = ray.at(hit.t);
-        let mut w = sol.mesh.locate(&s, &hit, p, true);
-        let plain = w.apply(&f).x;
-        parted.keep_visible(&sol.mesh, &bvh, &mut w, p);
-        (plain, w.apply(&f).x)
+        read_floor(&s, &sol, &bvh, &parted, &f, v(1.40, 0.5, 0.6))
     };
     let (plain, seen) = read(1.5);
     assert!(plain > 1.0, "interpolated {plain}");
