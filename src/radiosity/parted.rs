@@ -32,6 +32,15 @@ const LIFT: f32 = 0.05;
 /// either side of an obstacle: only such pieces are tested ([`parted_pieces`]).
 const CONTRAST: f32 = 2.0;
 
+/// A vertex hidden from a read is another room's light, which the read drops, where
+/// its light is more than this factor times what the seen vertices give there
+/// ([`keep_seen`]); a dimmer one is the far side of a post or a chair's leg, round
+/// which the light reaches. Conference room (render seeds 0 / 1), two rooms: any
+/// brighter vertex dropped 0.0355 / 0.0364, 0.0233 / 0.0226; 2x 0.0343 / 0.0352,
+/// 0.0234 / 0.0226; 4x 0.0329 / 0.0338, 0.0235 / 0.0227; 8x 0.0324 / 0.0333, 0.0239 /
+/// 0.0229 (Mitsuba's 64 spp: 0.0365, 0.0272).
+const OTHER_SIDE: f32 = 4.0;
+
 /// The vertices a piece interpolates from (at its centre), sorted, unused slots
 /// `u32::MAX`.
 type Set = [u32; 4];
@@ -131,13 +140,13 @@ pub(super) fn parted_pieces(
 
 /// Drops from `w` (the weights at `x`) the vertices that an obstacle hides from `x`
 /// (the rays `lift` above the surface) where their light in `field` is more than
-/// [`CONTRAST`] times what the seen ones give there, and scales the rest back to one:
+/// [`OTHER_SIDE`] times what the seen ones give there, and scales the rest back to one:
 /// a point on the dark side of a wall does not take the lit side's light, one beside
 /// a column keeps the shade of the vertex under it, and one beside a chair's leg the
 /// light of the vertex beyond it, which the light reaches round the leg. (Dropping
 /// every brighter hidden vertex made the conference room's floor and ceiling 1 %
-/// darker: FLIP 0.0308 -> 0.0354 / 0.0364 on render seeds 0 / 1, 0.0343 / 0.0352
-/// now; the two rooms 0.0233 / 0.0226 either way.) Keeps `w` where it sees none.
+/// darker: FLIP 0.0308 -> 0.0354 / 0.0364 on render seeds 0 / 1.) Keeps `w` where it
+/// sees none.
 /// Returns the rays cast.
 fn keep_seen(
     mesh: &RadiosityMesh,
@@ -171,7 +180,7 @@ fn keep_seen(
         / sum;
     let mut kept = *w;
     for k in 0..4 {
-        if !seen[k] && mean(field[w.vertices[k] as usize]) > CONTRAST * there {
+        if !seen[k] && mean(field[w.vertices[k] as usize]) > OTHER_SIDE * there {
             kept.weights[k] = 0.0;
         }
     }

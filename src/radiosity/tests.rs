@@ -255,12 +255,12 @@ fn a_point_beside_a_wall_reads_the_light_of_its_own_side() {
 }
 
 /// [`Parted`]'s reads drop a hidden vertex only where its light is more than
-/// `CONTRAST` (2) times what the seen ones give: another room's light, not the far
+/// `OTHER_SIDE` (4) times what the seen ones give: another room's light, not the far
 /// side of a chair's leg (dropping every brighter one made the conference room 1 %
 /// darker). On [`two_rooms_under_one_floor`]'s mesh, with a field of light made up
-/// (left of the wall 0.6 or 1.0 by z, 1.5 right of it, or 3.0): read at x = 1.40,
-/// beside the wall, the right-hand vertices (1.5) stay in the interpolation, which
-/// the seen ones alone would not give; at 3.0 they are dropped.
+/// (left of the wall 0.6 or 1.0 by z, right of it 1.5 or 5.0): read at x = 1.40,
+/// beside the wall, where the seen vertices give 0.9, the right-hand vertices stay in
+/// the interpolation at 1.5 and 3.0, and are dropped at 5.0.
 #[test]
 fn a_point_beside_an_obstacle_drops_only_vertices_far_brighter_than_its_own() {
     let (s, sol, _, _) = two_rooms_under_one_floor(&settings(0.4, 16, 100));
@@ -283,10 +283,15 @@ fn a_point_beside_an_obstacle_drops_only_vertices_far_brighter_than_its_own() {
         let parted = Parted::new(&sol.mesh, &bvh, f.clone());
         read_floor(&s, &sol, &bvh, &parted, &f, v(1.40, 0.5, 0.6))
     };
-    let (plain, seen) = read(1.5);
-    assert!(plain > 1.0, "interpolated {plain}");
-    assert_eq!(plain, seen, "a hidden vertex within twice the seen ones' light");
-    let (plain, seen) = read(3.0);
+    for right in [1.5, 3.0] {
+        let (plain, seen) = read(right);
+        assert!(plain > 1.0, "interpolated {plain}");
+        assert_eq!(
+            plain, seen,
+            "a hidden vertex of {right}, within four times the seen ones' light"
+        );
+    }
+    let (plain, seen) = read(5.0);
     assert!(plain > 1.0, "interpolated {plain}");
     assert!(seen <= 1.0, "read {seen}: the other room's vertices dropped");
 }
