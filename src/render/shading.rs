@@ -581,9 +581,10 @@ impl<'a> Tracer<'a> {
             let smooth = !kind.is_rough_glass();
             let l = self.through_glass(&kind, &sp, ray, depth, seed, counters, |t, r, s, c| {
                 let back = r.dir.dot(sp.ng) * ray.dir.dot(sp.ng) < 0.0;
-                match smooth && (back || specular) {
-                    true => t.reflected_whole(r, depth + 1, s, c),
-                    false => t.reflected(r, depth + 1, s, false, c).0,
+                if smooth && (back || specular) {
+                    t.reflected_whole(r, depth + 1, s, c)
+                } else {
+                    t.reflected(r, depth + 1, s, false, c).0
                 }
             });
             return (l, emitter);

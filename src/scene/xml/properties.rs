@@ -278,7 +278,6 @@ impl Loader {
         })
     }
 
-    /// Warns about every parameter of `obj` that no one read.
     /// Warns about the parameters `obj` did not read, and about image textures that
     /// it read only as their mean (a roughness map, a glass's transmittance map, a
     /// light's radiance): those are the same all over the surface here.

@@ -74,6 +74,16 @@ impl<'a, 'i> Obj<'a, 'i> {
     }
 }
 
+/// Mitsuba 0.6's mipmapped bitmap filters (its default was `ewa`, anisotropic), which
+/// Mitsuba 3 no longer has: read from a mipmap ([`TexFilter::Trilinear`]).
+const MIPMAPPED: [&str; 2] = ["trilinear", "ewa"];
+
+/// A Mitsuba 0.6 bitmap's `gamma` that reads its bytes as linear (their bump maps'
+/// 1.0); -1 or 2.2 is sRGB, as there.
+fn linear_gamma(g: f32) -> bool {
+    (g - 1.0).abs() < 1e-6
+}
+
 impl Obj<'_, '_> {
     /// The image texture that gives parameter `name`, if one does (its index in the
     /// scene's textures).
@@ -296,10 +306,8 @@ impl Loader {
         let filter = match obj.string("filter_type")?.as_deref().unwrap_or("bilinear") {
             "bilinear" => TexFilter::Bilinear,
             "nearest" => TexFilter::Nearest,
-            // Mitsuba 0.6's mipmapped filters (its default was `ewa`, anisotropic),
-            // which Mitsuba 3 no longer has: read from a mipmap over the camera
-            // rays' footprints.
-            "trilinear" | "ewa" if obj.src.legacy => TexFilter::Trilinear,
+            // Read from a mipmap over the camera rays' footprints.
+            f if obj.src.legacy && MIPMAPPED.contains(&f) => TexFilter::Trilinear,
             f => return Err(obj.err_param("filter_type", format!("= '{f}' is not 'bilinear' or 'nearest'"))),
         };
         let wrap = match obj.string("wrap_mode")?.as_deref().unwrap_or("repeat") {
@@ -314,12 +322,8 @@ impl Loader {
             }
         };
         let to_uv = to_uv(obj)?;
-        // Mitsuba 0.6 files may still say `gamma` (their bump maps' 1.0): -1 or 2.2
-        // is sRGB, 1 is linear, as there.
-        let raw = match obj.float("gamma")? {
-            Some(g) if (g - 1.0).abs() < 1e-6 => true,
-            _ => raw,
-        };
+        // Mitsuba 0.6 files may still say `gamma`.
+        let raw = obj.float("gamma")?.is_some_and(linear_gamma) || raw;
         let key = (path.clone(), raw);
         let i = match self.images.get(&key) {
             Some(&base) => {
@@ -384,7 +388,8 @@ impl Loader {
             let raw = match (tag(n), n.attribute("type")) {
                 ("texture", Some("bitmap")) => {
                     child(n, "boolean", &["raw"]).is_some_and(|v| parse::boolean(v) == Ok(true))
-                        || child(n, "float", &["gamma"]).is_some_and(|v| parse::number(v) == Ok(1.0))
+                        || child(n, "float", &["gamma"])
+                            .is_some_and(|v| parse::number(v).is_ok_and(linear_gamma))
                 }
                 ("emitter", Some("envmap")) => false,
                 _ => continue,
@@ -393,8 +398,7 @@ impl Loader {
                 continue;
             };
             let mips = s.legacy
-                && child(n, "string", &["filter_type", "filterType"])
-                    .is_some_and(|f| f == "trilinear" || f == "ewa");
+                && child(n, "string", &["filter_type", "filterType"]).is_some_and(|f| MIPMAPPED.contains(&f));
             let key = (self.resolve(s, name), raw);
             if key.0.is_file()
                 && !self.images.contains_key(&key)
