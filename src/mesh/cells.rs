@@ -4,20 +4,34 @@
 
 use glam::{Vec2, Vec3};
 
-use super::{Domain, RadiosityMesh};
+use super::{Domain, Interp, RadiosityMesh};
 use crate::scene::Rgb;
+
+/// A shot's care over cells that an obstacle stands on (a wall on a floor that runs
+/// on under it into the next room): which cells it parts, and the field read at a
+/// point of such a cell from the vertices that point sees, not from all those it
+/// interpolates (which mix the two rooms' light).
+pub trait Parting: Sync {
+    /// Whether an obstacle stands on `cell` (its field not yet read).
+    fn parts(&self, cell: &ShootCell) -> bool;
+    /// The field at point `x` of a parted cell, whose vertices' weights are `w`, and
+    /// whether the obstacle hides one of them from `x` (or `x` lies in it).
+    fn read(&self, w: Interp, x: Vec3) -> (Rgb, bool);
+}
 
 impl RadiosityMesh {
     /// The patch cut into about `count` cells for shooting from it (stratified:
     /// cells of a regular grid over each of the patch's grids, in proportion to
     /// area), each with a point jittered inside it by `u` (`u(g << 16 | k)` for cell
-    /// `k` of grid `g`) and the mean of `field` (per vertex; may be empty) over it.
+    /// `k` of grid `g`) and the mean of `field` (per vertex; may be empty) over it,
+    /// read with `parting`'s care over the cells it parts ([`ShootCell::parted`]).
     pub fn shoot_cells(
         &self,
         patch: u32,
         count: u32,
         u: impl Fn(u32) -> Vec2,
         field: &[Rgb],
+        parting: Option<&dyn Parting>,
     ) -> Vec<ShootCell> {
         let p = &self.patches[patch as usize];
         let total = p.area;
@@ -29,18 +43,17 @@ impl RadiosityMesh {
             if let Domain::Lattice(l) = &grid.domain {
                 // The surface of a back twin is wound for the back already.
                 let base = grid.first_vertex;
-                let value = |q: Vec3| {
-                    if field.is_empty() {
-                        Vec3::ZERO
-                    } else {
-                        l.interp(base, q).apply(field)
-                    }
+                let field = Field {
+                    values: field,
+                    parting,
+                    at: |q: Vec3| l.interp(base, q),
                 };
-                if let Some(blocks) = l.blocks(count) {
-                    out.extend(block_cells(&blocks, p.area, &u, self.mesh_size, value));
+                let cells: Vec<ShootCell> = if let Some(blocks) = l.blocks(count) {
+                    block_cells(&blocks, p.area, &u, self.mesh_size, field).collect()
                 } else {
-                    out.extend(surface_cells(&l.surface, count, &u, self.mesh_size, value));
-                }
+                    surface_cells(&l.surface, count, &u, self.mesh_size, field).collect()
+                };
+                out.extend(cells.into_iter().map(|c| ShootCell { grid: g as u32, ..c }));
                 continue;
             }
             let k = (count as f32 * grid.area / total).max(1.0);
@@ -84,6 +97,31 @@ impl RadiosityMesh {
                         grid.interp(s, t).apply(field)
                     })
                 };
+                let mut cell = ShootCell {
+                    corners: poly,
+                    len: corners.len() as u8,
+                    p: pos,
+                    n,
+                    value,
+                    quarters,
+                    sixteenths,
+                    weight: 1.0,
+                    flat: !matches!(grid.domain, Domain::Curved { .. }),
+                    parted: false,
+                    mixed: 0,
+                    grid: g as u32,
+                };
+                if let Some(parting) = parting.filter(|pt| !field.is_empty() && cell.flat && pt.parts(&cell))
+                {
+                    let mixed = std::cell::Cell::new(0u16);
+                    let means = cell_mean(q, tri, |a, b| {
+                        let (s, t) = at(a, b);
+                        let (v, hid) = parting.read(grid.interp(s, t), grid.eval(s, t).0);
+                        mixed.set(mixed.get() | u16::from(hid) << piece_of(tri, a, b));
+                        v
+                    });
+                    cell.read_with_care(means, mixed.get());
+                }
                 // A curved cell's corner polygon has straight edges where the cell's
                 // are curved (a disk's rim: a quarter disk's cells of two segments
                 // lose 10% of its light). What a cell sends a point at a distance
@@ -113,17 +151,7 @@ impl RadiosityMesh {
                 } else {
                     1.0
                 };
-                out.push(ShootCell {
-                    corners: poly,
-                    len: corners.len() as u8,
-                    p: pos,
-                    n,
-                    value,
-                    quarters,
-                    sixteenths,
-                    weight,
-                    flat: !curved,
-                });
+                out.push(ShootCell { weight, ..cell });
             };
             match grid.domain {
                 Domain::Tri(_) => {
@@ -185,8 +213,7 @@ pub struct ShootCell {
     pub quarters: [Rgb; 4],
     /// Of a quadrilateral carrying a field, the field's luminance over its 4 x 4
     /// sixteenths in local coordinates (sixteenth i + 4 j spans [i/4, (i+1)/4] x
-    /// [j/4, (j+1)/4]), by the same points: where a parted cell's rays aim
-    /// ([`point_by_light`]).
+    /// [j/4, (j+1)/4]), by the same points: the light of a parted cell's pieces.
     pub sixteenths: Option<[f32; 16]>,
     /// What the cell's light counts for: 1, or (area of the surface) / (area of the
     /// cells drawn) when the cells are a sample of a surface of more pieces than cells.
@@ -194,6 +221,45 @@ pub struct ShootCell {
     /// The cell is flat: every point of its corner polygon lies on the surface (not
     /// so for a piece of a curved Bezier surface).
     pub flat: bool,
+    /// An obstacle stands on the cell ([`Parting::parts`]): its field was read with
+    /// care ([`Parting::read`]).
+    pub parted: bool,
+    /// Of a parted cell, the pieces (bit k: sixteenth k of a quadrilateral, quarter k
+    /// of a triangle) where the obstacle hid a vertex from one of the points read:
+    /// it stands on them or beside them, so their light may differ from one side of it
+    /// to the other.
+    pub mixed: u16,
+    /// The index of the grid it lies on among its patch's grids (see
+    /// [`RadiosityMesh::flat_interp`]).
+    pub grid: u32,
+}
+
+/// A per-vertex field as the cells of a triangle mesh read it: the weights at a
+/// point of the surface (`at`), and the care a shot takes over the cells it parts.
+struct Field<'a, F> {
+    values: &'a [Rgb],
+    parting: Option<&'a dyn Parting>,
+    at: F,
+}
+
+/// The piece of a cell that local point (a, b) falls in: of a quadrilateral its
+/// sixteenth (i + 4 j, [`ShootCell::sixteenths`]), of a triangle (barycentrics of
+/// corners 1 and 2) its quarter (corner 0's, 1's, 2's, then the middle one).
+fn piece_of(tri: bool, a: f32, b: f32) -> usize {
+    if tri {
+        if a + b < 0.5 {
+            0
+        } else if a > 0.5 {
+            1
+        } else if b > 0.5 {
+            2
+        } else {
+            3
+        }
+    } else {
+        let bin = |t: f32| ((t * 4.0) as usize).min(3);
+        bin(a) + 4 * bin(b)
+    }
 }
 
 /// The mean of `f` over a cell, by `q` x `q` points, and its means over the cell's
@@ -210,19 +276,9 @@ fn cell_mean(q: u32, tri: bool, f: impl Fn(f32, f32) -> Rgb) -> (Rgb, [Rgb; 4], 
     let mut add = |a: f32, b: f32| {
         let v = f(a, b);
         let k = if tri {
-            // Corner 0's, corner 1's, corner 2's, then the middle triangle.
-            if a + b < 0.5 {
-                0
-            } else if a > 0.5 {
-                1
-            } else if b > 0.5 {
-                2
-            } else {
-                3
-            }
+            piece_of(true, a, b)
         } else {
-            let bin = |t: f32| ((t * 4.0) as usize).min(3);
-            let i = bin(a) + 4 * bin(b);
+            let i = piece_of(false, a, b);
             fine[i] += v.element_sum();
             fine_n[i] += 1;
             usize::from(a > 0.5) + 2 * usize::from(b > 0.5)
@@ -267,7 +323,7 @@ fn surface_cells<'a>(
     count: u32,
     u: &'a impl Fn(u32) -> Vec2,
     mesh_size: f32,
-    value: impl Fn(Vec3) -> Rgb + 'a,
+    field: Field<'a, impl Fn(Vec3) -> Interp + 'a>,
 ) -> impl Iterator<Item = ShootCell> + 'a {
     let areas: Vec<f32> = tris
         .iter()
@@ -295,14 +351,20 @@ fn surface_cells<'a>(
         }
     }
     pieces.into_iter().enumerate().map(move |(k, (t, weight))| {
-        flat_cell(&t, point_in_polygon(&t, u(k as u32)), weight, mesh_size, &value)
+        flat_cell(&t, point_in_polygon(&t, u(k as u32)), weight, mesh_size, &field)
     })
 }
 
 /// A shooting cell on the triangle or planar quadrilateral `poly` with point `p` and
-/// weight `weight`, holding the mean of `value` over it (points about half of
+/// weight `weight`, holding the mean of `field` over it (points about half of
 /// `mesh_size` apart).
-fn flat_cell(poly: &[Vec3], p: Vec3, weight: f32, mesh_size: f32, value: impl Fn(Vec3) -> Rgb) -> ShootCell {
+fn flat_cell(
+    poly: &[Vec3],
+    p: Vec3,
+    weight: f32,
+    mesh_size: f32,
+    field: &Field<'_, impl Fn(Vec3) -> Interp>,
+) -> ShootCell {
     let tri = poly.len() == 3;
     // Twice the area along the normal: edges of a triangle, diagonals of a quadrilateral.
     let n = if tri {
@@ -312,16 +374,21 @@ fn flat_cell(poly: &[Vec3], p: Vec3, weight: f32, mesh_size: f32, value: impl Fn
     };
     let side = (0.5 * n.length()).sqrt();
     let q = ((2.0 * side / mesh_size.max(1e-30)).ceil() as u32).clamp(1, 16);
-    let (value, quarters, sixteenths) = cell_mean(q, tri, |a, b| {
-        value(if tri {
+    let point = |a: f32, b: f32| {
+        if tri {
             poly[0] + (poly[1] - poly[0]) * a + (poly[2] - poly[0]) * b
         } else {
             point_in_polygon(poly, Vec2::new(a, b))
-        })
-    });
+        }
+    };
+    let (value, quarters, sixteenths) = if field.values.is_empty() {
+        (Vec3::ZERO, [Vec3::ZERO; 4], (!tri).then_some([0.0; 16]))
+    } else {
+        cell_mean(q, tri, |a, b| (field.at)(point(a, b)).apply(field.values))
+    };
     let mut corners = [Vec3::ZERO; 4];
     corners[..poly.len()].copy_from_slice(poly);
-    ShootCell {
+    let mut cell = ShootCell {
         corners,
         len: poly.len() as u8,
         p,
@@ -331,7 +398,24 @@ fn flat_cell(poly: &[Vec3], p: Vec3, weight: f32, mesh_size: f32, value: impl Fn
         sixteenths,
         weight,
         flat: true,
+        parted: false,
+        mixed: 0,
+        grid: 0,
+    };
+    if let Some(parting) = field
+        .parting
+        .filter(|pt| !field.values.is_empty() && pt.parts(&cell))
+    {
+        let mixed = std::cell::Cell::new(0u16);
+        let means = cell_mean(q, tri, |a, b| {
+            let x = point(a, b);
+            let (v, hid) = parting.read((field.at)(x), x);
+            mixed.set(mixed.get() | u16::from(hid) << piece_of(tri, a, b));
+            v
+        });
+        cell.read_with_care(means, mixed.get());
     }
+    cell
 }
 
 /// Shooting cells on the planar quadrilaterals `blocks` that tile a surface of area
@@ -343,7 +427,7 @@ fn block_cells<'a>(
     area: f32,
     u: &'a impl Fn(u32) -> Vec2,
     mesh_size: f32,
-    value: impl Fn(Vec3) -> Rgb + 'a,
+    field: Field<'a, impl Fn(Vec3) -> Interp + 'a>,
 ) -> impl Iterator<Item = ShootCell> + 'a {
     let quad_area = |b: &[Vec3; 4]| 0.5 * (b[2] - b[0]).cross(b[3] - b[1]).length();
     let tiled: f32 = blocks.iter().map(quad_area).sum();
@@ -351,10 +435,22 @@ fn block_cells<'a>(
     blocks
         .iter()
         .enumerate()
-        .map(move |(k, b)| flat_cell(b, point_in_polygon(b, u(k as u32)), weight, mesh_size, &value))
+        .map(move |(k, b)| flat_cell(b, point_in_polygon(b, u(k as u32)), weight, mesh_size, &field))
 }
 
 impl ShootCell {
+    /// Takes the field's means read with care (as [`cell_mean`] gives them), marks the
+    /// cell parted and its pieces `mixed`.
+    fn read_with_care(
+        &mut self,
+        (value, quarters, sixteenths): (Rgb, [Rgb; 4], Option<[f32; 16]>),
+        mixed: u16,
+    ) {
+        (self.value, self.quarters, self.sixteenths) = (value, quarters, sixteenths);
+        self.parted = true;
+        self.mixed = mixed;
+    }
+
     /// The corner polygon.
     pub fn polygon(&self) -> &[Vec3] {
         &self.corners[..self.len as usize]
@@ -384,53 +480,10 @@ pub fn quarter(poly: &[Vec3], k: usize) -> ([Vec3; 4], usize) {
     )
 }
 
-/// The point at `u` in the cell polygon `poly` (as [`point_in_polygon`]), drawn in
-/// proportion to the field over its pieces: a quadrilateral's `sixteenths` if given
-/// (as [`ShootCell::sixteenths`]), else its `quarters` (as [`ShootCell::quarters`]).
-/// `u.x` picks a piece by its share of their sum (luminance) and, stretched back to
-/// [0, 1), places the point in it with `u.y`. A uniform `u` then gives points of
-/// density proportional to the field at the pieces' scale, and a piece of no light
-/// gets none. With no light in any piece, uniform.
-pub fn point_by_light(poly: &[Vec3], quarters: &[Rgb; 4], sixteenths: Option<&[f32; 16]>, u: Vec2) -> Vec3 {
-    if let (Some(w), 4) = (sixteenths, poly.len()) {
-        return match pick(w, u.x) {
-            Some((k, a)) => {
-                let (i, j) = ((k % 4) as f32, (k / 4) as f32);
-                point_in_polygon(poly, Vec2::new((i + a) / 4.0, (j + u.y) / 4.0))
-            }
-            None => point_in_polygon(poly, u),
-        };
-    }
-    match pick(&quarters.map(|q| q.element_sum()), u.x) {
-        Some((k, a)) => {
-            let (c, len) = quarter(poly, k);
-            point_in_polygon(&c[..len], Vec2::new(a, u.y))
-        }
-        None => point_in_polygon(poly, u),
-    }
-}
-
-/// The piece of weights `w` (negatives as none) that `x` in [0, 1) falls in by its
-/// share of their sum, and where in the piece's share it fell, in [0, 1); `None`
-/// when no piece has weight.
-fn pick(w: &[f32], x: f32) -> Option<(usize, f32)> {
-    let n = w.len();
-    let w = |k: usize| w[k].max(0.0);
-    let sum: f32 = (0..n).map(w).sum();
-    if !(sum > 0.0) || !sum.is_finite() {
-        return None;
-    }
-    let mut x = x * sum;
-    let mut k = 0;
-    while k + 1 < n && (x >= w(k) || w(k) <= 0.0) {
-        x -= w(k);
-        k += 1;
-    }
-    // The rounding of the last subtraction may leave `k` at an empty piece.
-    while w(k) <= 0.0 {
-        k -= 1;
-    }
-    Some((k, (x / w(k)).clamp(0.0, 1.0 - f32::EPSILON)))
+/// Sixteenth `m` of quarter `k` of a quadrilateral ([`quarter`] of [`quarter`]) is
+/// sixteenth `sixteenth_of(k, m)` of the whole (i + 4 j, as [`ShootCell::sixteenths`]).
+pub fn sixteenth_of(k: usize, m: usize) -> usize {
+    2 * (k % 2) + m % 2 + 4 * (2 * (k / 2) + m / 2)
 }
 
 /// The length of the vector area of the closed loop `pts` (half the sum of the

@@ -30,7 +30,7 @@ mod pieces;
 mod size;
 
 pub use albedo::{mean_albedo, textured_albedo};
-pub use cells::{point_by_light, point_in_polygon, quarter, vector_area, ShootCell};
+pub use cells::{point_in_polygon, quarter, sixteenth_of, vector_area, Parting, ShootCell};
 pub use lattice::Lattice;
 pub use midpoints::{Between, Midpoints};
 pub use pieces::Piece;
@@ -524,6 +524,20 @@ impl RadiosityMesh {
             }
         };
         grid.interp(st.x, st.y)
+    }
+
+    /// The weights at point `p` of grid `grid` of patch `patch` (the grid of a flat
+    /// shooting cell, [`ShootCell::grid`]), covered vertices left out as everywhere;
+    /// `None` for a curved grid, whose points are found by their parameters.
+    pub fn flat_interp(&self, patch: u32, grid: u32, p: Vec3) -> Option<Interp> {
+        let grid = self.patches.get(patch as usize)?.grids.get(grid as usize)?;
+        let st = match &grid.domain {
+            Domain::Lattice(l) => return Some(l.interp(grid.first_vertex, p)),
+            Domain::Tri(t) => barycentric(*t, p),
+            Domain::Quad(q) => inverse_bilinear(*q, p),
+            Domain::Curved { .. } => return None,
+        };
+        Some(grid.interp(st.x, st.y))
     }
 
     /// The elements of patch `patch` as triangles of vertex indices (quadrilateral

@@ -348,6 +348,7 @@ fn solve_inner(
         folded: vec![BTreeSet::new(); mesh.patches.len()],
         kept: transfer::Kept::new(mesh.patches.len(), keep_bytes),
         midpoints: Midpoints::of(&mesh),
+        cell_rays: Default::default(),
         stats: SolveStats {
             elements: mesh.element_count() as u64,
             vertices: nv as u64,
@@ -441,7 +442,10 @@ fn solve_inner(
             s.stats.timed_out |= out_of_time;
             break;
         }
-        let levels = s.levels(|s, k| s.patch_points(best as u32, k));
+        let mut levels = s.levels(|s, k| s.patch_points(best as u32, k));
+        if levels.sets.iter().flatten().any(|sp| sp.parted) {
+            levels.field = s.unshot.clone();
+        }
         let first = s.mesh.patches[best].first_vertex as usize;
         let count = s.mesh.patches[best].vertex_count as usize;
         for (u, shot) in s.unshot[first..first + count]
@@ -466,6 +470,7 @@ fn solve_inner(
         s.photons(receiving, start, budget, progress, trace);
     }
     progress.finish();
+    s.stats.rays += s.cell_rays.into_inner();
     s.stats.time_s = start.elapsed().as_secs_f64();
     let solution = Solution {
         mesh: s.mesh,
@@ -542,6 +547,9 @@ struct Solver<'a> {
     /// The grids' midpoints, which shots take from the coarse vertices about them
     /// where those agree ([`coherence`]).
     midpoints: Midpoints,
+    /// Rays that found the parted cells of patch shots and read their fields
+    /// ([`parted::ShotParting`]), added to the stats at the end.
+    cell_rays: std::sync::atomic::AtomicU64,
     stats: SolveStats,
 }
 
@@ -618,6 +626,7 @@ impl Solver<'_> {
             centre,
             radius,
             area,
+            field: Vec::new(),
         }
     }
 
@@ -645,7 +654,7 @@ impl Solver<'_> {
                     let base = ((p - first) as u32) << 16;
                     for c in self
                         .mesh
-                        .shoot_cells(p as u32, k, |i| jitter(base.wrapping_add(i)), &[])
+                        .shoot_cells(p as u32, k, |i| jitter(base.wrapping_add(i)), &[], None)
                     {
                         pts.push(ShootPoint::uniform(&c, radiance * std::f32::consts::PI));
                     }
@@ -670,10 +679,18 @@ impl Solver<'_> {
     /// dark ones included, so a kept shot's links stay valid (see `transfer`).
     fn patch_points(&self, p: u32, count: u32) -> Vec<ShootPoint> {
         let jitter = self.jitter((self.stats.patch_shots + 1) | u64::from(count) << 48);
-        self.mesh
-            .shoot_cells(p, count, jitter, &self.unshot)
+        let parting = parted::ShotParting::new(&self.mesh, self.accel, &self.unshot);
+        let cells = self
+            .mesh
+            .shoot_cells(p, count, jitter, &self.unshot, Some(&parting));
+        self.cell_rays
+            .fetch_add(parting.rays(), std::sync::atomic::Ordering::Relaxed);
+        cells
             .iter()
-            .map(|c| ShootPoint::from_patch_cell(c, self.accel))
+            .map(|c| ShootPoint {
+                cell_of: Some((p, c.grid, c.weight)),
+                ..ShootPoint::from_cell(c)
+            })
             .collect()
     }
 
