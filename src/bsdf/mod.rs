@@ -40,6 +40,20 @@ pub fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
 /// The diffuse base of Mitsuba's `plastic` behind its coating: the reflectance with
 /// the light the coating reflects back inside added (`nonlinear`: per channel, as
 /// repeated bounces; otherwise as one mean term).
+/// The mean over the hemisphere, cosine-weighted, of a smooth coating's transmittance
+/// from outside (2 * integral of (1 - F(mu)) mu dmu, midpoint rule in mu: 32 Fresnel
+/// terms, as it runs at every photon hit and every gathered hit).
+fn plastic_mean_transmittance(eta: f32) -> f32 {
+    let n = 32;
+    2.0 * (0..n)
+        .map(|a| {
+            let c = (a as f32 + 0.5) / n as f32;
+            (1.0 - fresnel_dielectric(c, eta)) * c
+        })
+        .sum::<f32>()
+        / n as f32
+}
+
 fn plastic_base(d: Rgb, eta: f32, nonlinear: bool) -> Rgb {
     let fdr_int = fresnel_diffuse_reflectance(1.0 / eta);
     if nonlinear {
@@ -174,19 +188,11 @@ impl BsdfKind {
                 ..
             } => {
                 // rho = pi * integral f cos cos over both hemispheres / pi^2 (cosine-weighted
-                // average of the directional albedo), midpoint rule in cos. The BRDF is the
-                // base times a product of one transmittance per direction, so the double
-                // integral is the square of one (32 Fresnel terms, not 32 x 32: it runs at
-                // every photon hit and every gathered hit).
-                let n = 32;
-                let one: f32 = (0..n)
-                    .map(|a| {
-                        let c = (a as f32 + 0.5) / n as f32;
-                        (1.0 - fresnel_dielectric(c, *eta)) * c
-                    })
-                    .sum::<f32>()
-                    / n as f32;
-                plastic_base(*diffuse_reflectance, *eta, *nonlinear) * (4.0 * one * one / (eta * eta))
+                // average of the directional albedo). The BRDF is the base times a product
+                // of one transmittance per direction, so the double integral is the square
+                // of one.
+                let t = plastic_mean_transmittance(*eta);
+                plastic_base(*diffuse_reflectance, *eta, *nonlinear) * (t * t / (eta * eta))
             }
             BsdfKind::RoughPlastic {
                 diffuse_reflectance,
@@ -199,6 +205,44 @@ impl BsdfKind {
                 let t = c.mean_external;
                 c.base(*diffuse_reflectance, plastic::coating_eta(lobe), *nonlinear)
                     * (std::f32::consts::PI * t * t)
+            }
+        }
+    }
+
+    /// Diffuse directional albedo at the view cosine `cos_v`: the fraction of light
+    /// arriving alike from all directions that the diffuse part sends towards the
+    /// view (the radiance seen is this times the irradiance over pi). Its
+    /// cosine-weighted mean over the view directions is [`Self::diffuse_albedo`];
+    /// behind a coating it falls as the coating's transmittance towards the view does
+    /// (a plastic seen head on sends 6 % more than that mean, at grazing angles less).
+    pub fn diffuse_albedo_at(&self, cos_v: f32) -> Rgb {
+        match self {
+            BsdfKind::Diffuse { reflectance } => *reflectance,
+            BsdfKind::Conductor { .. } | BsdfKind::RoughConductor { .. } | BsdfKind::Dielectric { .. } => {
+                Vec3::ZERO
+            }
+            BsdfKind::Blend { weight, a, b } => {
+                a.diffuse_albedo_at(cos_v) * (1.0 - weight) + b.diffuse_albedo_at(cos_v) * *weight
+            }
+            BsdfKind::Plastic {
+                diffuse_reflectance,
+                eta,
+                nonlinear,
+                ..
+            } => {
+                let t = plastic_mean_transmittance(*eta);
+                plastic_base(*diffuse_reflectance, *eta, *nonlinear)
+                    * ((1.0 - fresnel_dielectric(cos_v, *eta)) * t / (eta * eta))
+            }
+            BsdfKind::RoughPlastic {
+                diffuse_reflectance,
+                lobe,
+                nonlinear,
+                coating,
+            } => {
+                let c = plastic::coating(lobe, coating);
+                c.base(*diffuse_reflectance, plastic::coating_eta(lobe), *nonlinear)
+                    * (std::f32::consts::PI * c.transmittance(cos_v) * c.mean_external)
             }
         }
     }
@@ -288,6 +332,79 @@ mod tests {
         assert!((b.diffuse_brdf(0.3, 0.9) - f * 0.75).length() < 1e-6);
         assert!((b.mirror(0.5) - Vec3::splat(0.225)).length() < 1e-6);
         assert!(b.has_diffuse() && b.has_mirror());
+    }
+
+    /// The diffuse directional albedo towards a view is the integral of the diffuse
+    /// BRDF times the cosine over the light's hemisphere (2 pi integral f(c, cos_v) c
+    /// dc, summed here), for smooth and rough plastic, Lambert's and a blend; its
+    /// cosine-weighted mean over the views is the albedo pass 1 uses; a plastic seen
+    /// head on sends more than that mean, at grazing angles less.
+    #[test]
+    fn the_diffuse_albedo_towards_a_view_integrates_the_brdf() {
+        let plastic = BsdfKind::Plastic {
+            diffuse_reflectance: Vec3::new(0.6, 0.6, 0.55),
+            specular_reflectance: Vec3::ONE,
+            eta: 1.49 / 1.000277,
+            nonlinear: false,
+        };
+        let rough = BsdfKind::RoughPlastic {
+            diffuse_reflectance: Vec3::splat(0.5),
+            lobe: Glossy {
+                distribution: crate::scene::Microfacet {
+                    alpha_u: 0.2,
+                    alpha_v: 0.2,
+                    beckmann: false,
+                },
+                fresnel: crate::scene::Fresnel::Dielectric { eta: 1.5 },
+                scale: Vec3::ONE,
+            },
+            nonlinear: false,
+            coating: crate::scene::CoatingCell::default(),
+        };
+        let blend = BsdfKind::Blend {
+            weight: 0.3,
+            a: Box::new(plastic.clone()),
+            b: Box::new(BsdfKind::Diffuse {
+                reflectance: Vec3::splat(0.8),
+            }),
+        };
+        let n = 4000;
+        for kind in [&plastic, &rough, &blend] {
+            let directional = |cv: f32| -> f32 {
+                (0..n)
+                    .map(|k| {
+                        let c = (k as f32 + 0.5) / n as f32;
+                        2.0 * std::f32::consts::PI * kind.diffuse_brdf(c, cv).x * c / n as f32
+                    })
+                    .sum()
+            };
+            let mut mean = 0.0;
+            let m = 200;
+            for k in 0..m {
+                let cv = (k as f32 + 0.5) / m as f32;
+                let at = kind.diffuse_albedo_at(cv).x;
+                assert!(
+                    (at - directional(cv)).abs() < 2e-3 * at,
+                    "{kind:?} at {cv}: {at} vs {}",
+                    directional(cv)
+                );
+                mean += 2.0 * at * cv / m as f32;
+            }
+            let albedo = kind.diffuse_albedo().x;
+            assert!(
+                (mean - albedo).abs() < 2e-3 * albedo,
+                "{kind:?}: mean {mean} vs {albedo}"
+            );
+        }
+        let (head_on, grazing, albedo) = (
+            plastic.diffuse_albedo_at(1.0).x,
+            plastic.diffuse_albedo_at(0.1).x,
+            plastic.diffuse_albedo().x,
+        );
+        assert!(
+            head_on > 1.05 * albedo && grazing < 0.8 * albedo,
+            "{head_on} {grazing} {albedo}"
+        );
     }
 
     #[test]

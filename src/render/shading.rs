@@ -241,6 +241,9 @@ impl<'a> Tracer<'a> {
                     let interp = self.locate(mesh, &hit, &sp);
                     let patch = mesh.vertices[interp.vertices[0] as usize].patch;
                     let textured = texture_ratio(bsdf, &kind, mesh, &interp);
+                    // The solution's radiosity is the diffuse part's mean over the view
+                    // directions; behind a coating it depends on the view.
+                    let seen = seen_ratio(&kind, cos_v);
                     let mut sum = match (&self.gather, depth) {
                         // The paper's last step: the gather replaces the general
                         // radiosity but its caustic part (see `gather` for the one
@@ -255,7 +258,8 @@ impl<'a> Tracer<'a> {
                                 parted: self.parted.as_ref(),
                             };
                             let e = g.irradiance(&ctx, &sp, patch, seed, counters);
-                            let mut sum = (g.kept(&interp) * textured + kind.diffuse_albedo() * e)
+                            let mut sum = (g.kept(&interp) * textured * seen
+                                + kind.diffuse_albedo_at(cos_v) * e)
                                 * std::f32::consts::FRAC_1_PI;
                             for &l in g.folded(patch) {
                                 let rays = if self.sources[l as usize].is_area() {
@@ -273,7 +277,7 @@ impl<'a> Tracer<'a> {
                             }
                             sum
                         }
-                        _ => interp.apply(&selection.stored) * textured * std::f32::consts::FRAC_1_PI,
+                        _ => interp.apply(&selection.stored) * textured * seen * std::f32::consts::FRAC_1_PI,
                     };
                     for pick in selection.picks(patch) {
                         sum += self.sample_source(*pick, &shade, counters, sib.as_deref_mut(), usable);
@@ -797,6 +801,23 @@ fn power_heuristic(a: f32, b: f32) -> f32 {
     } else {
         0.0
     }
+}
+
+/// What the radiosity read at a hit of model `kind` is scaled by for the view at
+/// cosine `cos_v`: the diffuse albedo towards the view over its mean over the view
+/// directions, which pass 1 spread the light with (1 for Lambert's). A smooth plastic
+/// door (reflectance 0.6, IOR 1.49) seen at cosine 0.86 came out 8-9 % darker than
+/// Mitsuba's where a Lambertian one matched.
+fn seen_ratio(kind: &BsdfKind, cos_v: f32) -> Rgb {
+    if kind.lambertian().is_some() {
+        return Vec3::ONE;
+    }
+    let mean = kind.diffuse_albedo();
+    Vec3::select(
+        mean.cmpgt(Vec3::ZERO),
+        kind.diffuse_albedo_at(cos_v) / mean.max(Vec3::splat(f32::MIN_POSITIVE)),
+        Vec3::ONE,
+    )
 }
 
 /// What the radiosity `interp` reads from `mesh` is scaled by at a hit on `bsdf`
