@@ -54,6 +54,24 @@ fn plastic_mean_transmittance(eta: f32) -> f32 {
         / n as f32
 }
 
+/// See [`BsdfKind::coating_weight`].
+pub enum CoatingWeight<'a> {
+    /// A smooth coating of relative index `eta`, its mean transmittance.
+    Smooth { eta: f32, mean: f32 },
+    /// A rough coating's table.
+    Rough(&'a crate::scene::Coating),
+}
+
+impl CoatingWeight<'_> {
+    /// The weight of light arriving at cosine `cos_l`.
+    pub fn at(&self, cos_l: f32) -> f32 {
+        match self {
+            CoatingWeight::Smooth { eta, mean } => (1.0 - fresnel_dielectric(cos_l, *eta)) / mean,
+            CoatingWeight::Rough(c) => c.transmittance(cos_l) / c.mean_external,
+        }
+    }
+}
+
 fn plastic_base(d: Rgb, eta: f32, nonlinear: bool) -> Rgb {
     let fdr_int = fresnel_diffuse_reflectance(1.0 / eta);
     if nonlinear {
@@ -247,6 +265,24 @@ impl BsdfKind {
         }
     }
 
+    /// How the diffuse part of a coated material (`plastic`, `roughplastic`) weighs the
+    /// light arriving at cosine `cos_l` against light arriving alike from all
+    /// directions: the coating's transmittance there over its cosine-weighted mean
+    /// (more head on, less at grazing angles). `None` where it takes every direction
+    /// alike (Lambert's; a blend, whose parts are not weighed apart).
+    pub fn coating_weight(&self) -> Option<CoatingWeight<'_>> {
+        match self {
+            BsdfKind::Plastic { eta, .. } => Some(CoatingWeight::Smooth {
+                eta: *eta,
+                mean: plastic_mean_transmittance(*eta),
+            }),
+            BsdfKind::RoughPlastic { lobe, coating, .. } => {
+                Some(CoatingWeight::Rough(plastic::coating(lobe, coating)))
+            }
+            _ => None,
+        }
+    }
+
     /// Whether the material reflects light on like a mirror or a glossy metal (what
     /// the lights' photons of pass 1 are aimed at).
     pub fn has_mirror(&self) -> bool {
@@ -405,6 +441,55 @@ mod tests {
             head_on > 1.05 * albedo && grazing < 0.8 * albedo,
             "{head_on} {grazing} {albedo}"
         );
+    }
+
+    /// A coating weighs the light arriving at each angle by its transmittance there
+    /// over its mean: light arriving alike from all directions keeps its weight (the
+    /// cosine-weighted mean is 1, summed here over 2000 cosines), light head on is
+    /// worth more, at grazing angles less; Lambert's takes no weight.
+    #[test]
+    fn a_coating_weighs_light_by_its_angle_and_keeps_uniform_light_whole() {
+        let smooth = BsdfKind::Plastic {
+            diffuse_reflectance: Vec3::splat(0.5),
+            specular_reflectance: Vec3::ONE,
+            eta: 1.49 / 1.000277,
+            nonlinear: false,
+        };
+        let rough = BsdfKind::RoughPlastic {
+            diffuse_reflectance: Vec3::splat(0.5),
+            lobe: Glossy {
+                distribution: crate::scene::Microfacet {
+                    alpha_u: 0.3,
+                    alpha_v: 0.3,
+                    beckmann: true,
+                },
+                fresnel: crate::scene::Fresnel::Dielectric { eta: 1.6 },
+                scale: Vec3::ONE,
+            },
+            nonlinear: false,
+            coating: crate::scene::CoatingCell::default(),
+        };
+        for kind in [&smooth, &rough] {
+            let w = kind.coating_weight().expect("a coated material");
+            let n = 2000;
+            let mean: f32 = (0..n)
+                .map(|k| {
+                    let c = (k as f32 + 0.5) / n as f32;
+                    2.0 * w.at(c) * c / n as f32
+                })
+                .sum();
+            assert!((mean - 1.0).abs() < 2e-3, "{kind:?}: {mean}");
+            assert!(
+                w.at(1.0) > 1.03 && w.at(0.05) < 0.8,
+                "{} {}",
+                w.at(1.0),
+                w.at(0.05)
+            );
+        }
+        let lambert = BsdfKind::Diffuse {
+            reflectance: Vec3::splat(0.5),
+        };
+        assert!(lambert.coating_weight().is_none());
     }
 
     #[test]

@@ -456,6 +456,12 @@ impl Gather {
         counters: &mut Counters,
     ) -> Hemisphere {
         let traced = &self.traced_patches[patch as usize];
+        // A coated material's diffuse part weighs the light by its direction: the
+        // irradiance gathered is weighed so, and the hit takes it times the diffuse
+        // albedo towards the view (`BsdfKind::diffuse_albedo_at`).
+        let shape = ctx.solution.mesh.patches[patch as usize].shape as usize;
+        let kind = &ctx.scene.bsdfs[ctx.scene.shapes[shape].bsdf as usize].kind;
+        let coat = kind.coating_weight();
         let m = ((n as f32 / std::f32::consts::PI).sqrt().round() as u32).max(1);
         let k_n = (n / m).max(1);
         let cells = (m * k_n) as usize;
@@ -472,7 +478,9 @@ impl Gather {
                 if dir.dot(sp.ng) <= 0.0 {
                     continue;
                 }
-                (value[k as usize], dist[k as usize]) = self.read(ctx, sp, dir, traced, (seed, k), counters);
+                let (v, d) = self.read(ctx, sp, dir, traced, (seed, k), counters);
+                let w = coat.as_ref().map_or(1.0, |c| c.at(dir.dot(sp.ns)));
+                (value[k as usize], dist[k as usize]) = (v * w, d);
             }
         }
         Hemisphere {
