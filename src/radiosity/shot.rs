@@ -857,7 +857,7 @@ impl Solver<'_> {
 
 /// Piece `i` of a parted cell `poly` (see `Solver::parted_light`): a quadrilateral's
 /// sixteenth `i` (as [`crate::mesh::ShootCell::sixteenths`]), a triangle's quarter.
-fn piece_polygon(poly: &[Vec3], i: usize) -> ([Vec3; 4], usize) {
+pub(super) fn piece_polygon(poly: &[Vec3], i: usize) -> ([Vec3; 4], usize) {
     if poly.len() == 4 {
         let (q, m) = (2 * (i / 8) + (i % 4) / 2, 2 * ((i / 4) % 2) + i % 2);
         let (c, _) = quarter(poly, q);
@@ -868,7 +868,7 @@ fn piece_polygon(poly: &[Vec3], i: usize) -> ([Vec3; 4], usize) {
 }
 
 /// The point at draw `u` of piece `i` of a parted cell `poly` ([`piece_polygon`]).
-fn piece_point(poly: &[Vec3], i: usize, u: Vec2) -> Vec3 {
+pub(super) fn piece_point(poly: &[Vec3], i: usize, u: Vec2) -> Vec3 {
     if poly.len() == 4 {
         let (col, row) = ((i % 4) as f32, (i / 4) as f32);
         point_in_polygon(poly, Vec2::new((col + u.x) / 4.0, (row + u.y) / 4.0))
