@@ -44,14 +44,28 @@ pub fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
 /// from outside (2 * integral of (1 - F(mu)) mu dmu, midpoint rule in mu: 32 Fresnel
 /// terms, as it runs at every photon hit and every gathered hit).
 fn plastic_mean_transmittance(eta: f32) -> f32 {
-    let n = 32;
-    2.0 * (0..n)
-        .map(|a| {
-            let c = (a as f32 + 0.5) / n as f32;
-            (1.0 - fresnel_dielectric(c, eta)) * c
-        })
-        .sum::<f32>()
-        / n as f32
+    // The last index's, per thread: a scene has few, and every diffuse read of a
+    // plastic asks.
+    thread_local! {
+        static LAST: std::cell::Cell<(u32, f32)> = const { std::cell::Cell::new((u32::MAX, 0.0)) };
+    }
+    LAST.with(|last| {
+        let (bits, mean) = last.get();
+        if bits == eta.to_bits() {
+            return mean;
+        }
+        let n = 32;
+        let mean = 2.0
+            * (0..n)
+                .map(|a| {
+                    let c = (a as f32 + 0.5) / n as f32;
+                    (1.0 - fresnel_dielectric(c, eta)) * c
+                })
+                .sum::<f32>()
+            / n as f32;
+        last.set((eta.to_bits(), mean));
+        mean
+    })
 }
 
 /// See [`BsdfKind::coating_weight`].
@@ -263,6 +277,23 @@ impl BsdfKind {
                     * (std::f32::consts::PI * c.transmittance(cos_v) * c.mean_external)
             }
         }
+    }
+
+    /// What the diffuse light read from the solution (the diffuse part's mean over the
+    /// view directions, which pass 1 spreads the light with) is scaled by for the view
+    /// at cosine `cos_v`: the diffuse albedo towards the view over that mean (1 for
+    /// Lambert's). A smooth plastic door (reflectance 0.6, IOR 1.49) seen at cosine
+    /// 0.86 came out 8-9 % darker than Mitsuba's where a Lambertian one matched.
+    pub fn diffuse_seen(&self, cos_v: f32) -> Rgb {
+        if self.lambertian().is_some() {
+            return Vec3::ONE;
+        }
+        let mean = self.diffuse_albedo();
+        Vec3::select(
+            mean.cmpgt(Vec3::ZERO),
+            self.diffuse_albedo_at(cos_v) / mean.max(Vec3::splat(f32::MIN_POSITIVE)),
+            Vec3::ONE,
+        )
     }
 
     /// How the diffuse part of a coated material (`plastic`, `roughplastic`) weighs the

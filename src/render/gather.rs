@@ -545,7 +545,10 @@ impl Gather {
                     } else {
                         w.apply(&self.total)
                     };
-                    e += through * radiosity;
+                    // Towards the gathering point: a coated surface sends its
+                    // diffuse light by the view.
+                    let seen = bsdf.kind.diffuse_seen(y.ns.dot(-ray.dir).abs());
+                    e += through * radiosity * seen;
                 }
             }
             if bsdf.kind.is_glass() {

@@ -243,7 +243,7 @@ impl<'a> Tracer<'a> {
                     let textured = texture_ratio(bsdf, &kind, mesh, &interp);
                     // The solution's radiosity is the diffuse part's mean over the view
                     // directions; behind a coating it depends on the view.
-                    let seen = seen_ratio(&kind, cos_v);
+                    let seen = kind.diffuse_seen(cos_v);
                     let mut sum = match (&self.gather, depth) {
                         // The paper's last step: the gather replaces the general
                         // radiosity but its caustic part (see `gather` for the one
@@ -801,23 +801,6 @@ fn power_heuristic(a: f32, b: f32) -> f32 {
     } else {
         0.0
     }
-}
-
-/// What the radiosity read at a hit of model `kind` is scaled by for the view at
-/// cosine `cos_v`: the diffuse albedo towards the view over its mean over the view
-/// directions, which pass 1 spread the light with (1 for Lambert's). A smooth plastic
-/// door (reflectance 0.6, IOR 1.49) seen at cosine 0.86 came out 8-9 % darker than
-/// Mitsuba's where a Lambertian one matched.
-fn seen_ratio(kind: &BsdfKind, cos_v: f32) -> Rgb {
-    if kind.lambertian().is_some() {
-        return Vec3::ONE;
-    }
-    let mean = kind.diffuse_albedo();
-    Vec3::select(
-        mean.cmpgt(Vec3::ZERO),
-        kind.diffuse_albedo_at(cos_v) / mean.max(Vec3::splat(f32::MIN_POSITIVE)),
-        Vec3::ONE,
-    )
 }
 
 /// What the radiosity `interp` reads from `mesh` is scaled by at a hit on `bsdf`
