@@ -472,6 +472,12 @@ mod tests {
             head_on > 1.05 * albedo && grazing < 0.8 * albedo,
             "{head_on} {grazing} {albedo}"
         );
+        // What a read of the solution is scaled by: that ratio, and 1 for Lambert's.
+        assert!((plastic.diffuse_seen(1.0).x - head_on / albedo).abs() < 1e-5);
+        let lambert = BsdfKind::Diffuse {
+            reflectance: Vec3::splat(0.4),
+        };
+        assert_eq!(lambert.diffuse_seen(0.2), Vec3::ONE);
     }
 
     /// A coating weighs the light arriving at each angle by its transmittance there
