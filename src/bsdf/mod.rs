@@ -401,6 +401,25 @@ mod tests {
         assert!(b.has_diffuse() && b.has_mirror());
     }
 
+    /// A grey rough plastic of roughness `alpha` (Beckmann's or GGX) and relative index
+    /// `eta`.
+    fn rough_plastic(alpha: f32, beckmann: bool, eta: f32) -> BsdfKind {
+        BsdfKind::RoughPlastic {
+            diffuse_reflectance: Vec3::splat(0.5),
+            lobe: Glossy {
+                distribution: crate::scene::Microfacet {
+                    alpha_u: alpha,
+                    alpha_v: alpha,
+                    beckmann,
+                },
+                fresnel: crate::scene::Fresnel::Dielectric { eta },
+                scale: Vec3::ONE,
+            },
+            nonlinear: false,
+            coating: crate::scene::CoatingCell::default(),
+        }
+    }
+
     /// The diffuse directional albedo towards a view is the integral of the diffuse
     /// BRDF times the cosine over the light's hemisphere (2 pi integral f(c, cos_v) c
     /// dc, summed here), for smooth and rough plastic, Lambert's and a blend; its
@@ -414,20 +433,7 @@ mod tests {
             eta: 1.49 / 1.000277,
             nonlinear: false,
         };
-        let rough = BsdfKind::RoughPlastic {
-            diffuse_reflectance: Vec3::splat(0.5),
-            lobe: Glossy {
-                distribution: crate::scene::Microfacet {
-                    alpha_u: 0.2,
-                    alpha_v: 0.2,
-                    beckmann: false,
-                },
-                fresnel: crate::scene::Fresnel::Dielectric { eta: 1.5 },
-                scale: Vec3::ONE,
-            },
-            nonlinear: false,
-            coating: crate::scene::CoatingCell::default(),
-        };
+        let rough = rough_plastic(0.2, false, 1.5);
         let blend = BsdfKind::Blend {
             weight: 0.3,
             a: Box::new(plastic.clone()),
@@ -492,20 +498,7 @@ mod tests {
             eta: 1.49 / 1.000277,
             nonlinear: false,
         };
-        let rough = BsdfKind::RoughPlastic {
-            diffuse_reflectance: Vec3::splat(0.5),
-            lobe: Glossy {
-                distribution: crate::scene::Microfacet {
-                    alpha_u: 0.3,
-                    alpha_v: 0.3,
-                    beckmann: true,
-                },
-                fresnel: crate::scene::Fresnel::Dielectric { eta: 1.6 },
-                scale: Vec3::ONE,
-            },
-            nonlinear: false,
-            coating: crate::scene::CoatingCell::default(),
-        };
+        let rough = rough_plastic(0.3, true, 1.6);
         for kind in [&smooth, &rough] {
             let w = kind.coating_weight().expect("a coated material");
             let n = 2000;
