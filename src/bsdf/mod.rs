@@ -68,7 +68,8 @@ fn plastic_mean_transmittance(eta: f32) -> f32 {
     })
 }
 
-/// See [`BsdfKind::coating_weight`].
+/// The coating of a coated material (`plastic`, `roughplastic`): how much light it
+/// lets through at each angle (see [`BsdfKind::coating_weight`]).
 pub enum CoatingWeight<'a> {
     /// A smooth coating of relative index `eta`, its mean transmittance.
     Smooth { eta: f32, mean: f32 },
@@ -77,11 +78,25 @@ pub enum CoatingWeight<'a> {
 }
 
 impl CoatingWeight<'_> {
-    /// The weight of light arriving at cosine `cos_l`.
+    /// The weight of light arriving at cosine `cos_l`: the transmittance there over
+    /// its mean.
     pub fn at(&self, cos_l: f32) -> f32 {
+        self.transmittance(cos_l) / self.mean()
+    }
+
+    /// The transmittance from outside at cosine `cos`.
+    fn transmittance(&self, cos: f32) -> f32 {
         match self {
-            CoatingWeight::Smooth { eta, mean } => (1.0 - fresnel_dielectric(cos_l, *eta)) / mean,
-            CoatingWeight::Rough(c) => c.transmittance(cos_l) / c.mean_external,
+            CoatingWeight::Smooth { eta, .. } => 1.0 - fresnel_dielectric(cos, *eta),
+            CoatingWeight::Rough(c) => c.transmittance(cos),
+        }
+    }
+
+    /// The transmittance's cosine-weighted mean over the hemisphere.
+    fn mean(&self) -> f32 {
+        match self {
+            CoatingWeight::Smooth { mean, .. } => *mean,
+            CoatingWeight::Rough(c) => c.mean_external,
         }
     }
 }
@@ -105,26 +120,10 @@ impl BsdfKind {
             BsdfKind::Conductor { .. } | BsdfKind::RoughConductor { .. } | BsdfKind::Dielectric { .. } => {
                 Vec3::ZERO
             }
-            BsdfKind::Plastic {
-                diffuse_reflectance,
-                eta,
-                nonlinear,
-                ..
-            } => {
-                let t = (1.0 - fresnel_dielectric(cos_l, *eta)) * (1.0 - fresnel_dielectric(cos_v, *eta));
-                plastic_base(*diffuse_reflectance, *eta, *nonlinear)
-                    * (t / (eta * eta) * std::f32::consts::FRAC_1_PI)
-            }
-            BsdfKind::RoughPlastic {
-                diffuse_reflectance,
-                lobe,
-                nonlinear,
-                coating,
-            } => {
-                let c = plastic::coating(lobe, coating);
-                c.base(*diffuse_reflectance, plastic::coating_eta(lobe), *nonlinear)
-                    * (c.transmittance(cos_l) * c.transmittance(cos_v))
-            }
+            BsdfKind::Plastic { .. } | BsdfKind::RoughPlastic { .. } => match self.coated() {
+                Some((base, c)) => base * (c.transmittance(cos_l) * c.transmittance(cos_v)),
+                None => Vec3::ZERO,
+            },
             BsdfKind::Blend { weight, a, b } => {
                 a.diffuse_brdf(cos_l, cos_v) * (1.0 - weight) + b.diffuse_brdf(cos_l, cos_v) * *weight
             }
@@ -213,31 +212,13 @@ impl BsdfKind {
             BsdfKind::Blend { weight, a, b } => {
                 a.diffuse_albedo() * (1.0 - weight) + b.diffuse_albedo() * *weight
             }
-            BsdfKind::Plastic {
-                diffuse_reflectance,
-                eta,
-                nonlinear,
-                ..
-            } => {
-                // rho = pi * integral f cos cos over both hemispheres / pi^2 (cosine-weighted
-                // average of the directional albedo). The BRDF is the base times a product
-                // of one transmittance per direction, so the double integral is the square
-                // of one.
-                let t = plastic_mean_transmittance(*eta);
-                plastic_base(*diffuse_reflectance, *eta, *nonlinear) * (t * t / (eta * eta))
-            }
-            BsdfKind::RoughPlastic {
-                diffuse_reflectance,
-                lobe,
-                nonlinear,
-                coating,
-            } => {
-                // The same double integral, from the coating's precomputed mean.
-                let c = plastic::coating(lobe, coating);
-                let t = c.mean_external;
-                c.base(*diffuse_reflectance, plastic::coating_eta(lobe), *nonlinear)
-                    * (std::f32::consts::PI * t * t)
-            }
+            // rho = pi * integral f cos cos over both hemispheres / pi^2 (cosine-weighted
+            // average of the directional albedo). The BRDF is the base times a product of
+            // one transmittance per direction, so the double integral is the square of one.
+            BsdfKind::Plastic { .. } | BsdfKind::RoughPlastic { .. } => match self.coated() {
+                Some((base, c)) => base * (std::f32::consts::PI * c.mean() * c.mean()),
+                None => Vec3::ZERO,
+            },
         }
     }
 
@@ -256,26 +237,10 @@ impl BsdfKind {
             BsdfKind::Blend { weight, a, b } => {
                 a.diffuse_albedo_at(cos_v) * (1.0 - weight) + b.diffuse_albedo_at(cos_v) * *weight
             }
-            BsdfKind::Plastic {
-                diffuse_reflectance,
-                eta,
-                nonlinear,
-                ..
-            } => {
-                let t = plastic_mean_transmittance(*eta);
-                plastic_base(*diffuse_reflectance, *eta, *nonlinear)
-                    * ((1.0 - fresnel_dielectric(cos_v, *eta)) * t / (eta * eta))
-            }
-            BsdfKind::RoughPlastic {
-                diffuse_reflectance,
-                lobe,
-                nonlinear,
-                coating,
-            } => {
-                let c = plastic::coating(lobe, coating);
-                c.base(*diffuse_reflectance, plastic::coating_eta(lobe), *nonlinear)
-                    * (std::f32::consts::PI * c.transmittance(cos_v) * c.mean_external)
-            }
+            BsdfKind::Plastic { .. } | BsdfKind::RoughPlastic { .. } => match self.coated() {
+                Some((base, c)) => base * (std::f32::consts::PI * c.transmittance(cos_v) * c.mean()),
+                None => Vec3::ZERO,
+            },
         }
     }
 
@@ -302,13 +267,36 @@ impl BsdfKind {
     /// (more head on, less at grazing angles). `None` where it takes every direction
     /// alike (Lambert's; a blend, whose parts are not weighed apart).
     pub fn coating_weight(&self) -> Option<CoatingWeight<'_>> {
+        self.coated().map(|(_, c)| c)
+    }
+
+    /// A coated material's diffuse base (its BRDF without the coating's two
+    /// transmittances, one per direction) and its coating; `None` for the others.
+    fn coated(&self) -> Option<(Rgb, CoatingWeight<'_>)> {
         match self {
-            BsdfKind::Plastic { eta, .. } => Some(CoatingWeight::Smooth {
-                eta: *eta,
-                mean: plastic_mean_transmittance(*eta),
-            }),
-            BsdfKind::RoughPlastic { lobe, coating, .. } => {
-                Some(CoatingWeight::Rough(plastic::coating(lobe, coating)))
+            BsdfKind::Plastic {
+                diffuse_reflectance,
+                eta,
+                nonlinear,
+                ..
+            } => Some((
+                plastic_base(*diffuse_reflectance, *eta, *nonlinear) / (eta * eta * std::f32::consts::PI),
+                CoatingWeight::Smooth {
+                    eta: *eta,
+                    mean: plastic_mean_transmittance(*eta),
+                },
+            )),
+            BsdfKind::RoughPlastic {
+                diffuse_reflectance,
+                lobe,
+                nonlinear,
+                coating,
+            } => {
+                let c = plastic::coating(lobe, coating);
+                Some((
+                    c.base(*diffuse_reflectance, plastic::coating_eta(lobe), *nonlinear),
+                    CoatingWeight::Rough(c),
+                ))
             }
             _ => None,
         }
