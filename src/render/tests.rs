@@ -1062,3 +1062,51 @@ fn a_lamp_inside_clear_glass_lights_the_floor_as_the_bare_lamp() {
     assert!((bare / 0.025 - 1.0).abs() < 0.03, "{bare}");
     assert!((boxed / bare - 1.0).abs() < 0.03, "{boxed} against {bare}");
 }
+
+/// A smooth plastic floor under a uniform sky of radiance L, nothing ray traced (the
+/// sky's light read from the solution): seen head on and at a grazing angle, a pixel
+/// shows L times the diffuse albedo towards the view plus the coating's mirror image
+/// of the sky, F(cos_v) L. Read as the albedo's mean over the views, the head-on view
+/// came out 6 % dark (0.761 against 0.809) and the grazing one a quarter bright.
+#[test]
+fn a_plastic_floor_under_a_uniform_sky_shows_its_albedo_towards_the_view() {
+    use crate::scene::BsdfKind;
+    use crate::testutil::{looking, scene_with, square, uniform_sky};
+    let plastic = BsdfKind::Plastic {
+        diffuse_reflectance: Vec3::splat(0.8),
+        specular_reflectance: Vec3::ONE,
+        eta: 1.5,
+        nonlinear: false,
+    };
+    let l = 1.0f32;
+    for (eye, at) in [
+        (Vec3::new(0.0, 0.0, 3.0), Vec3::new(0.2, 0.0, 0.0)),
+        (Vec3::new(0.0, 0.0, 0.5), Vec3::new(3.0, 0.0, 0.0)),
+    ] {
+        let mut s = scene_with(
+            vec![(square(-5.0, 5.0, -5.0, 5.0, 0.0, false), plastic.clone())],
+            vec![uniform_sky(l)],
+            &[],
+        );
+        s.sensors.push(looking(eye, at, 4.0, 8, 8));
+        let bvh = Bvh::build(&s);
+        let sol = solve(&s, &bvh, &solve_settings(0.5, 1), &crate::progress::Silent).unwrap();
+        let none = SelectSettings {
+            radiance_threshold: f32::INFINITY,
+            ..Default::default()
+        };
+        let sel = select_unchecked(&s, &sol, Method::Local, &none, None).unwrap();
+        assert!((0..sol.mesh.patches.len()).all(|p| sel.picks(p as u32).is_empty()));
+        let mut st = settings(Method::Local);
+        (st.width, st.height, st.spp) = (8, 8, 16);
+        let img = draw(&s, &bvh, &st, Some(&sel)).image;
+        let centre: f32 = [27, 28, 35, 36].iter().map(|&i| img.pixels[i].x).sum::<f32>() / 4.0;
+        let cos_v = (eye - at).normalize().z;
+        let want = l * (plastic.diffuse_albedo_at(cos_v).x + crate::bsdf::fresnel_dielectric(cos_v, 1.5));
+        assert!(
+            (centre - want).abs() < 0.03 * want,
+            "cos_v {cos_v}: {centre} vs {want} (the mean albedo would give {})",
+            l * (plastic.diffuse_albedo().x + crate::bsdf::fresnel_dielectric(cos_v, 1.5))
+        );
+    }
+}
