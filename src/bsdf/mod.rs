@@ -37,9 +37,6 @@ pub fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
     }
 }
 
-/// The diffuse base of Mitsuba's `plastic` behind its coating: the reflectance with
-/// the light the coating reflects back inside added (`nonlinear`: per channel, as
-/// repeated bounces; otherwise as one mean term).
 /// The mean over the hemisphere, cosine-weighted, of a smooth coating's transmittance
 /// from outside (2 * integral of (1 - F(mu)) mu dmu, midpoint rule in mu: 32 Fresnel
 /// terms, as it runs at every photon hit and every gathered hit).
@@ -101,6 +98,9 @@ impl CoatingWeight<'_> {
     }
 }
 
+/// The diffuse base of Mitsuba's `plastic` behind its coating: the reflectance with
+/// the light the coating reflects back inside added (`nonlinear`: per channel, as
+/// repeated bounces; otherwise as one mean term).
 fn plastic_base(d: Rgb, eta: f32, nonlinear: bool) -> Rgb {
     let fdr_int = fresnel_diffuse_reflectance(1.0 / eta);
     if nonlinear {
@@ -250,6 +250,10 @@ impl BsdfKind {
     /// Lambert's). A smooth plastic door (reflectance 0.6, IOR 1.49) seen at cosine
     /// 0.86 came out 8-9 % darker than Mitsuba's where a Lambertian one matched.
     pub fn diffuse_seen(&self, cos_v: f32) -> Rgb {
+        // A coated material's base cancels: its coating's weight towards the view.
+        if let Some(c) = self.coating_weight() {
+            return Vec3::splat(c.at(cos_v));
+        }
         if self.lambertian().is_some() {
             return Vec3::ONE;
         }
@@ -267,39 +271,44 @@ impl BsdfKind {
     /// (more head on, less at grazing angles). `None` where it takes every direction
     /// alike (Lambert's; a blend, whose parts are not weighed apart).
     pub fn coating_weight(&self) -> Option<CoatingWeight<'_>> {
-        self.coated().map(|(_, c)| c)
+        match self {
+            BsdfKind::Plastic { eta, .. } => Some(CoatingWeight::Smooth {
+                eta: *eta,
+                mean: plastic_mean_transmittance(*eta),
+            }),
+            BsdfKind::RoughPlastic { lobe, coating, .. } => {
+                Some(CoatingWeight::Rough(plastic::coating(lobe, coating)))
+            }
+            _ => None,
+        }
     }
 
     /// A coated material's diffuse base (its BRDF without the coating's two
     /// transmittances, one per direction) and its coating; `None` for the others.
     fn coated(&self) -> Option<(Rgb, CoatingWeight<'_>)> {
-        match self {
-            BsdfKind::Plastic {
-                diffuse_reflectance,
-                eta,
-                nonlinear,
-                ..
-            } => Some((
-                plastic_base(*diffuse_reflectance, *eta, *nonlinear) / (eta * eta * std::f32::consts::PI),
-                CoatingWeight::Smooth {
-                    eta: *eta,
-                    mean: plastic_mean_transmittance(*eta),
+        let coat = self.coating_weight()?;
+        let base = match (self, &coat) {
+            (
+                BsdfKind::Plastic {
+                    diffuse_reflectance,
+                    eta,
+                    nonlinear,
+                    ..
                 },
-            )),
-            BsdfKind::RoughPlastic {
-                diffuse_reflectance,
-                lobe,
-                nonlinear,
-                coating,
-            } => {
-                let c = plastic::coating(lobe, coating);
-                Some((
-                    c.base(*diffuse_reflectance, plastic::coating_eta(lobe), *nonlinear),
-                    CoatingWeight::Rough(c),
-                ))
-            }
-            _ => None,
-        }
+                _,
+            ) => plastic_base(*diffuse_reflectance, *eta, *nonlinear) / (eta * eta * std::f32::consts::PI),
+            (
+                BsdfKind::RoughPlastic {
+                    diffuse_reflectance,
+                    lobe,
+                    nonlinear,
+                    ..
+                },
+                CoatingWeight::Rough(c),
+            ) => c.base(*diffuse_reflectance, plastic::coating_eta(lobe), *nonlinear),
+            _ => return None,
+        };
+        Some((base, coat))
     }
 
     /// Whether the material reflects light on like a mirror or a glossy metal (what

@@ -12,8 +12,8 @@ use crate::scene::Rgb;
 /// point of such a cell from the vertices that point sees, not from all those it
 /// interpolates (which mix the two rooms' light).
 pub trait Parting: Sync {
-    /// Whether an obstacle stands on `cell` (its field not yet read).
-    fn parts(&self, cell: &ShootCell) -> bool;
+    /// Whether an obstacle stands on the flat cell `poly` facing `n`.
+    fn parts(&self, poly: &[Vec3], n: Vec3) -> bool;
     /// The field at point `x` of a parted cell, whose vertices' weights are `w`, and
     /// whether the obstacle hides one of them from `x` (or `x` lies in it).
     fn read(&self, w: Interp, x: Vec3) -> (Rgb, bool);
@@ -89,15 +89,24 @@ impl RadiosityMesh {
                 for (c, &(cs, ct)) in corners.iter().enumerate() {
                     poly[c] = grid.eval(cs, ct).0;
                 }
-                let (value, quarters, sixteenths) = if field.is_empty() {
-                    (Vec3::ZERO, [Vec3::ZERO; 4], None)
-                } else {
-                    cell_mean(q, tri, |a, b| {
+                let flat = !matches!(grid.domain, Domain::Curved { .. });
+                let parting =
+                    parting.filter(|pt| flat && !field.is_empty() && pt.parts(&poly[..corners.len()], n));
+                let ((value, quarters, sixteenths), mixed) = read_cell(
+                    q,
+                    tri,
+                    field,
+                    parting,
+                    |a, b| {
                         let (s, t) = at(a, b);
-                        grid.interp(s, t).apply(field)
-                    })
-                };
-                let mut cell = ShootCell {
+                        grid.interp(s, t)
+                    },
+                    |a, b| {
+                        let (s, t) = at(a, b);
+                        grid.eval(s, t).0
+                    },
+                );
+                let cell = ShootCell {
                     corners: poly,
                     len: corners.len() as u8,
                     p: pos,
@@ -106,22 +115,11 @@ impl RadiosityMesh {
                     quarters,
                     sixteenths,
                     weight: 1.0,
-                    flat: !matches!(grid.domain, Domain::Curved { .. }),
-                    parted: false,
-                    mixed: 0,
+                    flat,
+                    parted: mixed.is_some(),
+                    mixed: mixed.unwrap_or(0),
                     grid: g as u32,
                 };
-                if let Some(parting) = parting.filter(|pt| !field.is_empty() && cell.flat && pt.parts(&cell))
-                {
-                    let mixed = std::cell::Cell::new(0u16);
-                    let means = cell_mean(q, tri, |a, b| {
-                        let (s, t) = at(a, b);
-                        let (v, hid) = parting.read(grid.interp(s, t), grid.eval(s, t).0);
-                        mixed.set(mixed.get() | u16::from(hid) << piece_of(tri, a, b));
-                        v
-                    });
-                    cell.read_with_care(means, mixed.get());
-                }
                 // A curved cell's corner polygon has straight edges where the cell's
                 // are curved (a disk's rim: a quarter disk's cells of two segments
                 // lose 10% of its light). What a cell sends a point at a distance
@@ -222,7 +220,7 @@ pub struct ShootCell {
     /// so for a piece of a curved Bezier surface).
     pub flat: bool,
     /// An obstacle stands on the cell ([`Parting::parts`]): its field was read with
-    /// care ([`Parting::read`]).
+    /// care ([`Parting::read`]). Only where a field was read.
     pub parted: bool,
     /// Of a parted cell, the pieces (bit k: sixteenth k of a quadrilateral, quarter k
     /// of a triangle) where the obstacle hid a vertex from one of the points read:
@@ -241,6 +239,10 @@ struct Field<'a, F> {
     parting: Option<&'a dyn Parting>,
     at: F,
 }
+
+/// A cell's field: its mean, its quarters' means, a quadrilateral's sixteenths'
+/// luminance (as [`ShootCell`] holds them).
+type Means = (Rgb, [Rgb; 4], Option<[f32; 16]>);
 
 /// The piece of a cell that local point (a, b) falls in: of a quadrilateral its
 /// sixteenth (i + 4 j, [`ShootCell::sixteenths`]), of a triangle (barycentrics of
@@ -268,7 +270,7 @@ fn piece_of(tri: bool, a: f32, b: f32) -> usize {
 /// q^2 (`tri` true; barycentrics of corners 1 and 2). An odd `q` is taken one
 /// higher, so that the points fall evenly into the quarters. A quadrilateral's third
 /// result is the luminance over its 4 x 4 sixteenths ([`ShootCell::sixteenths`]).
-fn cell_mean(q: u32, tri: bool, f: impl Fn(f32, f32) -> Rgb) -> (Rgb, [Rgb; 4], Option<[f32; 16]>) {
+fn cell_mean(q: u32, tri: bool, f: impl Fn(f32, f32) -> Rgb) -> Means {
     let q = q + q % 2;
     let qf = q as f32;
     let mut quarters = [Vec3::ZERO; 4];
@@ -381,41 +383,62 @@ fn flat_cell(
             point_in_polygon(poly, Vec2::new(a, b))
         }
     };
-    let (value, quarters, sixteenths) = if field.values.is_empty() {
-        (Vec3::ZERO, [Vec3::ZERO; 4], (!tri).then_some([0.0; 16]))
-    } else {
-        cell_mean(q, tri, |a, b| (field.at)(point(a, b)).apply(field.values))
-    };
+    let n = n.normalize_or(Vec3::Z);
+    let parting = field
+        .parting
+        .filter(|pt| !field.values.is_empty() && pt.parts(poly, n));
+    let ((value, quarters, sixteenths), mixed) = read_cell(
+        q,
+        tri,
+        field.values,
+        parting,
+        |a, b| (field.at)(point(a, b)),
+        point,
+    );
     let mut corners = [Vec3::ZERO; 4];
     corners[..poly.len()].copy_from_slice(poly);
-    let mut cell = ShootCell {
+    ShootCell {
         corners,
         len: poly.len() as u8,
         p,
-        n: n.normalize_or(Vec3::Z),
+        n,
         value,
         quarters,
         sixteenths,
         weight,
         flat: true,
-        parted: false,
-        mixed: 0,
+        parted: mixed.is_some(),
+        mixed: mixed.unwrap_or(0),
         grid: 0,
-    };
-    if let Some(parting) = field
-        .parting
-        .filter(|pt| !field.values.is_empty() && pt.parts(&cell))
-    {
-        let mixed = std::cell::Cell::new(0u16);
-        let means = cell_mean(q, tri, |a, b| {
-            let x = point(a, b);
-            let (v, hid) = parting.read((field.at)(x), x);
-            mixed.set(mixed.get() | u16::from(hid) << piece_of(tri, a, b));
-            v
-        });
-        cell.read_with_care(means, mixed.get());
     }
-    cell
+}
+
+/// The means over a cell of the per-vertex field `values` (as [`cell_mean`] gives
+/// them, zero for no field) by `q` x `q` points, local point (a, b) of which has the
+/// vertices' weights `weights(a, b)` and lies at `point(a, b)`: read plainly, or where
+/// `parting` parts the cell, with its care ([`Parting::read`]), and then with the
+/// pieces where a vertex was hidden from a point read ([`ShootCell::mixed`]).
+fn read_cell(
+    q: u32,
+    tri: bool,
+    values: &[Rgb],
+    parting: Option<&dyn Parting>,
+    weights: impl Fn(f32, f32) -> Interp,
+    point: impl Fn(f32, f32) -> Vec3,
+) -> (Means, Option<u16>) {
+    if values.is_empty() {
+        return ((Vec3::ZERO, [Vec3::ZERO; 4], None), None);
+    }
+    let Some(parting) = parting else {
+        return (cell_mean(q, tri, |a, b| weights(a, b).apply(values)), None);
+    };
+    let mixed = std::cell::Cell::new(0u16);
+    let means = cell_mean(q, tri, |a, b| {
+        let (v, hid) = parting.read(weights(a, b), point(a, b));
+        mixed.set(mixed.get() | u16::from(hid) << piece_of(tri, a, b));
+        v
+    });
+    (means, Some(mixed.get()))
 }
 
 /// Shooting cells on the planar quadrilaterals `blocks` that tile a surface of area
@@ -439,18 +462,6 @@ fn block_cells<'a>(
 }
 
 impl ShootCell {
-    /// Takes the field's means read with care (as [`cell_mean`] gives them), marks the
-    /// cell parted and its pieces `mixed`.
-    fn read_with_care(
-        &mut self,
-        (value, quarters, sixteenths): (Rgb, [Rgb; 4], Option<[f32; 16]>),
-        mixed: u16,
-    ) {
-        (self.value, self.quarters, self.sixteenths) = (value, quarters, sixteenths);
-        self.parted = true;
-        self.mixed = mixed;
-    }
-
     /// The corner polygon.
     pub fn polygon(&self) -> &[Vec3] {
         &self.corners[..self.len as usize]
@@ -484,6 +495,12 @@ pub fn quarter(poly: &[Vec3], k: usize) -> ([Vec3; 4], usize) {
 /// sixteenth `sixteenth_of(k, m)` of the whole (i + 4 j, as [`ShootCell::sixteenths`]).
 pub fn sixteenth_of(k: usize, m: usize) -> usize {
     2 * (k % 2) + m % 2 + 4 * (2 * (k / 2) + m / 2)
+}
+
+/// The quarter `k` and its quarter `m` that sixteenth `i` is ([`sixteenth_of`]'s
+/// inverse).
+pub fn quarter_of_sixteenth(i: usize) -> (usize, usize) {
+    (2 * (i / 8) + (i % 4) / 2, 2 * ((i / 4) % 2) + i % 2)
 }
 
 /// The length of the vector area of the closed loop `pts` (half the sum of the

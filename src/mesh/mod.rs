@@ -30,7 +30,9 @@ mod pieces;
 mod size;
 
 pub use albedo::{mean_albedo, textured_albedo};
-pub use cells::{point_in_polygon, quarter, sixteenth_of, vector_area, Parting, ShootCell};
+pub use cells::{
+    point_in_polygon, quarter, quarter_of_sixteenth, sixteenth_of, vector_area, Parting, ShootCell,
+};
 pub use lattice::Lattice;
 pub use midpoints::{Between, Midpoints};
 pub use pieces::Piece;
@@ -237,6 +239,19 @@ fn planar([a, b, c, d]: [Vec3; 4]) -> bool {
 pub const MAX_DIVISIONS: u32 = 256;
 
 impl Grid {
+    /// The weights at point `p` of a flat grid (a lattice's, a triangle's, a
+    /// quadrilateral's), covered vertices left out as everywhere; `None` for a curved
+    /// grid, whose points are found by their parameters.
+    pub fn flat_interp(&self, p: Vec3) -> Option<Interp> {
+        let st = match &self.domain {
+            Domain::Lattice(l) => return Some(l.interp(self.first_vertex, p)),
+            Domain::Tri(t) => barycentric(*t, p),
+            Domain::Quad(q) => inverse_bilinear(*q, p),
+            Domain::Curved { .. } => return None,
+        };
+        Some(self.interp(st.x, st.y))
+    }
+
     fn vertex_count(&self) -> u32 {
         match &self.domain {
             Domain::Tri(_) => (self.n + 1) * (self.n + 2) / 2,
@@ -505,9 +520,11 @@ impl RadiosityMesh {
             }
         };
         let st = match &grid.domain {
-            Domain::Lattice(l) => return l.interp(grid.first_vertex, p),
-            Domain::Tri(t) => barycentric(*t, p),
-            Domain::Quad(q) => inverse_bilinear(*q, p),
+            Domain::Lattice(_) | Domain::Tri(_) | Domain::Quad(_) => {
+                return grid
+                    .flat_interp(p)
+                    .expect("a flat grid has weights at every point")
+            }
             Domain::Curved {
                 surface: ParamSurface::Quadric(q, _),
                 u,
@@ -526,18 +543,14 @@ impl RadiosityMesh {
         grid.interp(st.x, st.y)
     }
 
-    /// The weights at point `p` of grid `grid` of patch `patch` (the grid of a flat
-    /// shooting cell, [`ShootCell::grid`]), covered vertices left out as everywhere;
-    /// `None` for a curved grid, whose points are found by their parameters.
+    /// [`Grid::flat_interp`] of grid `grid` of patch `patch` (the grid of a flat
+    /// shooting cell, [`ShootCell::grid`]).
     pub fn flat_interp(&self, patch: u32, grid: u32, p: Vec3) -> Option<Interp> {
-        let grid = self.patches.get(patch as usize)?.grids.get(grid as usize)?;
-        let st = match &grid.domain {
-            Domain::Lattice(l) => return Some(l.interp(grid.first_vertex, p)),
-            Domain::Tri(t) => barycentric(*t, p),
-            Domain::Quad(q) => inverse_bilinear(*q, p),
-            Domain::Curved { .. } => return None,
-        };
-        Some(grid.interp(st.x, st.y))
+        self.patches
+            .get(patch as usize)?
+            .grids
+            .get(grid as usize)?
+            .flat_interp(p)
     }
 
     /// The elements of patch `patch` as triangles of vertex indices (quadrilateral

@@ -1113,7 +1113,7 @@ fn a_surface_too_large_for_one_patch_is_cut_into_patches_found_by_position() {
 /// sixteenth `sixteenth_of(k, m)` names (i + 4 j by its local coordinates).
 #[test]
 fn a_quarter_of_a_quarter_is_the_sixteenth_sixteenth_of_names() {
-    use crate::mesh::{quarter, sixteenth_of};
+    use crate::mesh::{quarter, quarter_of_sixteenth, sixteenth_of};
     let square = [
         Vec3::ZERO,
         Vec3::new(2.0, 0.0, 0.0),
@@ -1133,6 +1133,7 @@ fn a_quarter_of_a_quarter_is_the_sixteenth_sixteenth_of_names() {
                 "quarter {k}, its quarter {m}"
             );
             seen[sixteenth_of(k, m)] = true;
+            assert_eq!(quarter_of_sixteenth(sixteenth_of(k, m)), (k, m));
         }
     }
     assert!(seen.iter().all(|&s| s), "every sixteenth once: {seen:?}");

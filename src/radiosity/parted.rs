@@ -22,7 +22,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::accel::{Accel, Ray};
-use crate::mesh::{Interp, Parting, Piece, RadiosityMesh, ShootCell};
+use crate::mesh::{Interp, Parting, Piece, RadiosityMesh};
 use crate::scene::{mean, Rgb};
 
 /// How far above a piece's surface, in its side's lengths, the rays between a point
@@ -268,7 +268,7 @@ impl Parted {
 /// point from the vertices that point sees ([`keep_seen`]): interpolated over an
 /// element that the wall stands on, the near side's points took the far side's light.
 /// Which pieces had a vertex hidden from a point read is kept
-/// ([`ShootCell::mixed`]): there a receiver reads the field at the points its rays
+/// ([`crate::mesh::ShootCell::mixed`]): there a receiver reads the field at the points its rays
 /// reach.
 pub(super) struct ShotParting<'a> {
     mesh: &'a RadiosityMesh,
@@ -294,9 +294,8 @@ impl<'a> ShotParting<'a> {
 }
 
 impl Parting for ShotParting<'_> {
-    fn parts(&self, cell: &ShootCell) -> bool {
-        let poly = cell.polygon();
-        if !cell.flat || poly.len() < 3 {
+    fn parts(&self, poly: &[Vec3], n: Vec3) -> bool {
+        if poly.len() < 3 {
             return false;
         }
         let centre = |k: usize| {
@@ -304,16 +303,30 @@ impl Parting for ShotParting<'_> {
             q[..len].iter().sum::<Vec3>() / len as f32
         };
         let centres = [centre(0), centre(1), centre(2), centre(3)];
-        let lift = cell.n * (0.1 * crate::mesh::vector_area(poly).sqrt()).max(1e-4);
+        let lift = n * (0.1 * crate::mesh::vector_area(poly).sqrt()).max(1e-4);
         let (parted, rays) = any_pair_hidden(self.accel, &centres, lift);
         self.rays.fetch_add(rays, Ordering::Relaxed);
         parted
     }
 
-    fn read(&self, mut w: Interp, x: Vec3) -> (Rgb, bool) {
-        let lift = (LIFT * self.mesh.mesh_size).max(1e-4);
-        let (rays, hid) = keep_seen(self.mesh, self.accel, self.field, &mut w, x, lift);
+    fn read(&self, w: Interp, x: Vec3) -> (Rgb, bool) {
+        let (light, hid, rays) = read_seen(self.mesh, self.accel, self.field, w, x);
         self.rays.fetch_add(rays, Ordering::Relaxed);
-        (w.apply(self.field), hid)
+        (light, hid)
     }
+}
+
+/// `field` at point `x` of a patch shot's parted cell, whose vertices' weights are
+/// `w`, read from the vertices `x` sees ([`keep_seen`], the rays a twentieth of the
+/// mesh size above the surface): the light, whether a vertex was hidden, the rays.
+pub(super) fn read_seen(
+    mesh: &RadiosityMesh,
+    accel: &dyn Accel,
+    field: &[Rgb],
+    mut w: Interp,
+    x: Vec3,
+) -> (Rgb, bool, u64) {
+    let lift = (LIFT * mesh.mesh_size).max(1e-4);
+    let (rays, hid) = keep_seen(mesh, accel, field, &mut w, x, lift);
+    (w.apply(field), hid, rays)
 }

@@ -10,7 +10,7 @@ use super::{transfer, AtVertex, Solver};
 use crate::emitters::SampledLight;
 use crate::geometry::{point_polygon_form_factor, polygon_vector_form_factor};
 use crate::interaction::{ray_epsilon, shadow_ray, transmittance};
-use crate::mesh::{point_in_polygon, quarter, sixteenth_of, vector_area, MeshVertex};
+use crate::mesh::{point_in_polygon, quarter, quarter_of_sixteenth, sixteenth_of, vector_area, MeshVertex};
 use crate::sampling::stratum;
 use crate::scene::{mean, Rgb};
 
@@ -681,9 +681,7 @@ fn quarter_form_factors_near(sp: &ShootPoint, x: Vec3, n: Vec3) -> Option<[f32; 
         return None;
     }
     let poly = &sp.poly[..sp.len as usize];
-    let diagonal = (poly[2] - poly[0]).length_squared();
-    let centre = poly.iter().sum::<Vec3>() / poly.len() as f32;
-    if (centre - x).length_squared() > QUARTERS_WITHIN * QUARTERS_WITHIN * diagonal {
+    if !within_diagonals(poly, x, QUARTERS_WITHIN) {
         return None;
     }
     Some(super::quarter_form_factors(x, n, poly).unwrap_or_else(|| {
@@ -702,6 +700,14 @@ fn quarter_form_factors_near(sp: &ShootPoint, x: Vec3, n: Vec3) -> Option<[f32; 
 /// 0.0315 / 0.0326, the two rooms' solve 1.31 M -> 1.70 M rays.
 const PARTED_NEAR: f32 = 1.0;
 
+/// Whether `x` lies within `k` of the cell `poly`'s diagonals (corner 0 to 2) of its
+/// centre.
+fn within_diagonals(poly: &[Vec3], x: Vec3, k: f32) -> bool {
+    let diagonal = (poly[2] - poly[0]).length_squared();
+    let centre = poly.iter().sum::<Vec3>() / poly.len() as f32;
+    (centre - x).length_squared() <= k * k * diagonal
+}
+
 /// Shadow rays from a receiver farther than [`PARTED_NEAR`] to a parted cell (see
 /// `Solver::parted_light`).
 const PARTED_FAR_RAYS: u32 = 4;
@@ -709,8 +715,8 @@ const PARTED_FAR_RAYS: u32 = 4;
 impl Solver<'_> {
     /// The light of a parted cell `sp` (number `k` of its set) at a receiver at `x`
     /// facing `n`, whose form factor to the whole cell is `f`: (the light the receiver
-    /// gets unoccluded, the light that gets through, the share of rays that got
-    /// through, the rays cast).
+    /// gets unoccluded, the light that gets through, the share of shadow rays that got
+    /// through, the rays cast, shadow rays and reads').
     ///
     /// Piece by piece (a quadrilateral's 4 x 4 sixteenths, a triangle's quarters):
     /// each piece's light times its form factor, seen through shadow rays to points of
@@ -743,11 +749,7 @@ impl Solver<'_> {
     ) -> (Rgb, Rgb, f32, u64) {
         let poly = &sp.poly[..sp.len as usize];
         let pieces = if poly.len() == 4 { 16 } else { 4 };
-        let near = {
-            let diagonal = (poly[2] - poly[0]).length_squared();
-            let centre = poly.iter().sum::<Vec3>() / poly.len() as f32;
-            (centre - x).length_squared() <= PARTED_NEAR * PARTED_NEAR * diagonal
-        };
+        let near = within_diagonals(poly, x, PARTED_NEAR);
         let b = sp.quarters.unwrap_or([sp.radiosity; 4]);
         let margin = 4.0 * (ray_epsilon(x) + ray_epsilon(sp.p));
         // Each piece's light as the cell was read and its form factor.
@@ -764,7 +766,7 @@ impl Solver<'_> {
             };
             light[i] = match sp.sixteenths.filter(|_| pieces == 16) {
                 Some(six) => {
-                    let q = 2 * (i / 8) + (i % 4) / 2;
+                    let (q, _) = quarter_of_sixteenth(i);
                     let sum: f32 = (0..4).map(|m| six[sixteenth_of(q, m)].max(0.0)).sum();
                     if sum > 0.0 {
                         b[q] * (4.0 * six[i].max(0.0) / sum)
@@ -790,13 +792,14 @@ impl Solver<'_> {
         };
         // The light at point `y` of piece `i`: where the obstacle stands on the piece,
         // read from the vertices `y` sees.
+        let read_rays = std::cell::Cell::new(0u64);
         let read = |i: usize, y: Vec3| match sp.cell_of {
             Some((patch, grid, weight)) if !field.is_empty() && sp.mixed & 1 << i != 0 => {
                 match self.mesh.flat_interp(patch, grid, y) {
-                    Some(mut w) => {
-                        let area = self.mesh.mesh_size * self.mesh.mesh_size;
-                        super::parted::keep_visible(&self.mesh, self.accel, field, &mut w, y, area);
-                        w.apply(field) * weight
+                    Some(w) => {
+                        let (l, _, rays) = super::parted::read_seen(&self.mesh, self.accel, field, w, y);
+                        read_rays.set(read_rays.get() + rays);
+                        l * weight
                     }
                     None => light[i],
                 }
@@ -851,7 +854,7 @@ impl Solver<'_> {
             seen *= f / sum_ff;
         }
         let vis = if cast > 0 { hits as f32 / cast as f32 } else { 0.0 };
-        (all, seen, vis, cast)
+        (all, seen, vis, cast + read_rays.get())
     }
 }
 
@@ -859,7 +862,7 @@ impl Solver<'_> {
 /// sixteenth `i` (as [`crate::mesh::ShootCell::sixteenths`]), a triangle's quarter.
 pub(super) fn piece_polygon(poly: &[Vec3], i: usize) -> ([Vec3; 4], usize) {
     if poly.len() == 4 {
-        let (q, m) = (2 * (i / 8) + (i % 4) / 2, 2 * ((i / 4) % 2) + i % 2);
+        let (q, m) = quarter_of_sixteenth(i);
         let (c, _) = quarter(poly, q);
         quarter(&c, m)
     } else {
