@@ -697,7 +697,8 @@ fn quarter_form_factors_near(sp: &ShootPoint, x: Vec3, n: Vec3) -> Option<[f32; 
 /// same with a lamp in each room, the frosted room (FLIP against Mitsuba, render seeds
 /// 0 / 1): within 0.5 0.0236 / 0.0207, 0.0289 / 0.0299, 0.0316 / 0.0325; 1 0.0237 /
 /// 0.0207, 0.0289 / 0.0300, 0.0316 / 0.0325; 3 0.0236 / 0.0207, 0.0288 / 0.0299,
-/// 0.0315 / 0.0326, the two rooms' solve 1.31 M -> 1.70 M rays.
+/// 0.0315 / 0.0326, the two rooms' solve 1.31 M -> 1.70 M shadow rays (the near receivers' reads
+/// not counted; with them, at 1, 1.53 M).
 const PARTED_NEAR: f32 = 1.0;
 
 /// Whether `x` lies within `k` of the cell `poly`'s diagonals (corner 0 to 2) of its
