@@ -168,7 +168,7 @@ pub struct SolveArgs {
     /// no cap); in a scene with mirrors, the lights' photons aimed at them and the
     /// shots' come beside them (the lights' a sixteenth to four times as many, by the
     /// power the mirrors take), both together at most this many again.
-    #[arg(long, default_value_t = 2_000_000, value_name = "N")]
+    #[arg(long, default_value_t = 1_000_000, value_name = "N")]
     pub(super) max_photons: u64,
     /// Time budget of the solve in seconds: deterministic shots stop at half of it,
     /// photons at all of it (the residual reached is reported) [default: none].
