@@ -25,17 +25,19 @@ impl RadiosityMesh {
         mesh_size: f32,
         fine: &std::collections::HashMap<(u32, u32), f32>,
     ) -> Self {
-        let mut mesh = RadiosityMesh {
-            mesh_size,
-            patches: Vec::new(),
-            vertices: Vec::new(),
-            shape_first_patch: Vec::with_capacity(scene.shapes.len()),
-            patch_map: Vec::with_capacity(scene.shapes.len()),
-            front_patches: 0,
-            refined: fine.len() as u32,
-            splits: std::collections::HashMap::new(),
-            albedo: Vec::new(),
-        };
+        let parts = Self::shape_parts(scene, mesh_size, fine, &|_| true);
+        Self::assemble(scene, mesh_size, fine.len() as u32, parts.into_iter().flatten())
+    }
+
+    /// Each shape's patches and vertices apart, in parallel (its indices counted from
+    /// its own first, see [`RadiosityMesh::shape_part`]), for the shapes `redo` names
+    /// (`None` for the rest).
+    pub(super) fn shape_parts(
+        scene: &Scene,
+        mesh_size: f32,
+        fine: &std::collections::HashMap<(u32, u32), f32>,
+        redo: &(dyn Fn(usize) -> bool + Sync),
+    ) -> Vec<Option<Self>> {
         let emitting: std::collections::HashSet<u32> = scene
             .lights
             .iter()
@@ -62,13 +64,32 @@ impl RadiosityMesh {
             rest_of[k] = union(before[k], after);
             after = union(after, bounds[k]);
         }
-        // Each shape's patches and vertices apart, in parallel (its indices counted
-        // from its own first), then appended in shape order: the same mesh as one
-        // shape after another.
-        let parts: Vec<RadiosityMesh> = (0..scene.shapes.len())
+        (0..scene.shapes.len())
             .into_par_iter()
-            .map(|si| Self::shape_part(scene, si, mesh_size, fine, &emitting, rest_of[si]))
-            .collect();
+            .map(|si| redo(si).then(|| Self::shape_part(scene, si, mesh_size, fine, &emitting, rest_of[si])))
+            .collect()
+    }
+
+    /// The mesh of the shapes' `parts` (one per shape, in shape order) appended one
+    /// after another, then the back twins of two-sided patches; `refined` patches of
+    /// them were meshed finer.
+    pub(super) fn assemble(
+        scene: &Scene,
+        mesh_size: f32,
+        refined: u32,
+        parts: impl IntoIterator<Item = Self>,
+    ) -> Self {
+        let mut mesh = RadiosityMesh {
+            mesh_size,
+            patches: Vec::new(),
+            vertices: Vec::new(),
+            shape_first_patch: Vec::with_capacity(scene.shapes.len()),
+            patch_map: Vec::with_capacity(scene.shapes.len()),
+            front_patches: 0,
+            refined,
+            splits: std::collections::HashMap::new(),
+            albedo: Vec::new(),
+        };
         for part in parts {
             mesh.append(part);
         }

@@ -20,6 +20,8 @@
 //! are recomputed under that rule, so deposits in proportion to the weights over the
 //! shares stay unbiased.
 
+use std::collections::{HashMap, HashSet};
+
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
@@ -48,14 +50,26 @@ impl RadiosityMesh {
     /// those that hold a small object (see [`super::contact`]) meshed finer if there
     /// are any, then [`RadiosityMesh::cover`].
     pub fn build_covered(scene: &Scene, mesh_size: f32, accel: &dyn Accel) -> Self {
-        let mut mesh = Self::build(scene, mesh_size);
+        let mut parts: Vec<Self> = Self::shape_parts(scene, mesh_size, &HashMap::new(), &|_| true)
+            .into_iter()
+            .flatten()
+            .collect();
+        let mut mesh = Self::assemble(scene, mesh_size, 0, parts.iter().cloned());
         let (mut fine, used) = mesh.near_light(scene);
         for (k, f) in mesh.holding(scene, accel, used) {
             let e = fine.entry(k).or_insert(f);
             *e = e.min(f);
         }
         if !fine.is_empty() {
-            mesh = Self::build_refined(scene, mesh_size, &fine);
+            // Only the shapes that hold a finer patch are meshed again.
+            let shapes: HashSet<u32> = fine.keys().map(|k| k.0).collect();
+            let redone = Self::shape_parts(scene, mesh_size, &fine, &|si| shapes.contains(&(si as u32)));
+            for (part, new) in parts.iter_mut().zip(redone) {
+                if let Some(new) = new {
+                    *part = new;
+                }
+            }
+            mesh = Self::assemble(scene, mesh_size, fine.len() as u32, parts);
         }
         mesh.cover(scene, accel);
         mesh.albedo = mesh.vertex_albedo(scene);
@@ -85,24 +99,32 @@ impl RadiosityMesh {
             .into_par_iter()
             .map(|v| reach[v] > 0.0 && self.enclosed(v, reach[v], scene, accel))
             .collect();
-        for p in 0..self.patches.len() {
-            for g in 0..self.patches[p].grids.len() {
-                let grid = &mut self.patches[p].grids[g];
+        // The grids with covered vertices, their shares recomputed in parallel.
+        let shares: Vec<(usize, Vec<f32>)> = self
+            .patches
+            .par_iter_mut()
+            .flat_map_iter(|p| p.grids.iter_mut())
+            .filter_map(|grid| {
                 let first = grid.first_vertex as usize;
                 let flags = &covered[first..first + grid.vertex_count() as usize];
                 if !flags.iter().any(|&c| c) {
-                    continue;
+                    return None;
                 }
-                let shares = if let Domain::Lattice(l) = &mut grid.domain {
-                    l.covered = flags.to_vec();
-                    l.area_shares()
-                } else {
-                    grid.covered = flags.to_vec();
-                    grid.area_shares()
-                };
-                for (v, a) in self.vertices[first..].iter_mut().zip(shares) {
-                    v.area = a;
-                }
+                Some((
+                    first,
+                    if let Domain::Lattice(l) = &mut grid.domain {
+                        l.covered = flags.to_vec();
+                        l.area_shares()
+                    } else {
+                        grid.covered = flags.to_vec();
+                        grid.area_shares()
+                    },
+                ))
+            })
+            .collect();
+        for (first, shares) in shares {
+            for (v, a) in self.vertices[first..].iter_mut().zip(shares) {
+                v.area = a;
             }
         }
     }
