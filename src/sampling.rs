@@ -146,12 +146,12 @@ pub fn cone_direction(axis: Vec3, solid_angle: f32, u: Vec2) -> Vec3 {
     (t * (sin_t * phi.cos()) + b * (sin_t * phi.sin()) + axis * cos_t).normalize()
 }
 
-/// Point `j` of `per` (a power of two, at most 128) stratified points in the unit
-/// square, from the draws of `seed` at `index | j` (`index`'s low 7 bits clear):
-/// strata as square as they go (2 x 2, 4 x 2, 4 x 4 ...). Two points are a point and
-/// its antipode on the torus instead (a shifted two-point lattice, both from draw
-/// `index`): apart across an edge of any direction, where two strata would be apart
-/// across one direction only.
+/// Point `j` of `per` (at most 128) stratified points in the unit square, from the
+/// draws of `seed` at `index | j` (`index`'s low 7 bits clear): for a power of two,
+/// strata as square as they go (2 x 2, 4 x 2, 4 x 4 ...); for another count, `per`
+/// columns, one point in each. Two points are a point and its antipode on the torus
+/// instead (a shifted two-point lattice, both from draw `index`): apart across an
+/// edge of any direction, where two strata would be apart across one direction only.
 pub fn stratum(seed: u32, index: u32, j: u32, per: u32) -> Vec2 {
     if per == 2 {
         let [a, b, _] = uniform3(seed, index);
@@ -160,7 +160,11 @@ pub fn stratum(seed: u32, index: u32, j: u32, per: u32) -> Vec2 {
     }
     let [a, b, _] = uniform3(seed, index | j);
     let per = per.max(1);
-    let sx = 1 << per.ilog2().div_ceil(2);
+    let sx = if per.is_power_of_two() {
+        1 << per.ilog2().div_ceil(2)
+    } else {
+        per
+    };
     let sy = per / sx;
     Vec2::new(
         ((j % sx) as f32 + a) / sx as f32,
@@ -309,14 +313,26 @@ mod tests {
         assert!((sum / k as f64 - 2.0 / 3.0).abs() < 0.01, "{}", sum / k as f64);
     }
 
-    /// Stratified points fall one in each stratum (4 x 4 for 16, 4 x 2 for 8), and two
-    /// points are half the torus apart in both coordinates.
+    /// Stratified points fall in the unit square, one in each stratum (4 x 4 for 16,
+    /// 4 x 2 for 8, 3 columns for 3), and two points are half the torus apart in both
+    /// coordinates.
     #[test]
     fn strata_hold_one_point_each_and_two_points_are_antipodes() {
-        for (per, sx, sy) in [(16u32, 4u32, 4u32), (8, 4, 2), (4, 2, 2), (1, 1, 1)] {
+        for (per, sx, sy) in [
+            (16u32, 4u32, 4u32),
+            (8, 4, 2),
+            (4, 2, 2),
+            (1, 1, 1),
+            (3, 3, 1),
+            (12, 12, 1),
+        ] {
             let mut seen = vec![false; per as usize];
             for j in 0..per {
                 let u = stratum(5, 3 << 8, j, per);
+                assert!(
+                    (0.0..1.0).contains(&u.x) && (0.0..1.0).contains(&u.y),
+                    "per {per}: {u}"
+                );
                 let (i, l) = ((u.x * sx as f32) as u32, (u.y * sy as f32) as u32);
                 assert!(
                     !seen[(l * sx + i) as usize],
