@@ -1067,8 +1067,20 @@ impl Solver<'_> {
                     return (Vec3::ZERO, Vec3::ZERO, 0);
                 }
                 let rho = mesh.albedo(i as u32);
-                let (o, u) = kept.receive(i, &radiosity, &quarters);
-                (o * rho, u * rho, 0)
+                let seed = derive(levels.seed, Stream::Receiver(i as u32));
+                let mut rays = 0;
+                // A cell an obstacle stands on, taken piece by piece with its field as
+                // it is now (see `transfer`).
+                let parted = |cell: u32, f: f32| match levels.cell(cell) {
+                    Some((sp, k)) if sp.flat => {
+                        let (all, seen, _, cast) = self.parted_light(sp, &levels.field, v.q, v.n, f, seed, k);
+                        rays += cast;
+                        (seen, all)
+                    }
+                    _ => (Vec3::ZERO, Vec3::ZERO),
+                };
+                let (o, u) = kept.receive(i, &radiosity, &quarters, parted);
+                (o * rho, u * rho, rays)
             })
             .collect();
         self.stats.reused_shots += 1;

@@ -97,6 +97,19 @@ impl Levels {
         }
     }
 
+    /// Cell `index` among all the sets' cells, one set after the other, and its
+    /// index in its set.
+    pub(super) fn cell(&self, index: u32) -> Option<(&ShootPoint, u32)> {
+        let mut k = index as usize;
+        for s in &self.sets {
+            if k < s.len() {
+                return Some((&s[k], k as u32));
+            }
+            k -= s.len();
+        }
+        None
+    }
+
     /// The radiosity of every cell of every set, one set after the other.
     pub(super) fn radiosity(&self) -> Vec<Rgb> {
         self.sets.iter().flatten().map(|sp| sp.radiosity).collect()
@@ -499,6 +512,7 @@ impl Solver<'_> {
                         f,
                         vis: val,
                         quarters: quarter_fs,
+                        parted: true,
                     });
                 }
                 continue;
@@ -524,6 +538,7 @@ impl Solver<'_> {
                     f,
                     vis: val,
                     quarters: quarter_fs,
+                    parted: false,
                 });
             }
         }
@@ -738,7 +753,7 @@ impl Solver<'_> {
     /// near side came out bright by the mean of such pieces otherwise: FLIP 0.0313 /
     /// 0.0290 -> 0.0223 / 0.0200).
     #[allow(clippy::too_many_arguments)]
-    fn parted_light(
+    pub(super) fn parted_light(
         &self,
         sp: &ShootPoint,
         field: &[Rgb],
