@@ -13,25 +13,16 @@ impl RadiosityMesh {
     /// diffuse reflectance that emits nothing keeps no radiosity: it gets the fewest
     /// vertices that still locate a hit (one element per patch).
     pub fn build(scene: &Scene, mesh_size: f32) -> Self {
-        Self::build_refined(scene, mesh_size, &std::collections::HashMap::new())
-    }
-
-    /// [`RadiosityMesh::build`], with the patches named in `fine` (by shape and the
-    /// index of their first polygon: [`MeshPatch::shape`], [`MeshPatch::local`])
-    /// meshed at that fraction of the mesh size (see [`contact`] and [`near_light`]).
-    /// Polygons merge into patches as at the full size, so the patches are the same.
-    pub(super) fn build_refined(
-        scene: &Scene,
-        mesh_size: f32,
-        fine: &std::collections::HashMap<(u32, u32), f32>,
-    ) -> Self {
-        let parts = Self::shape_parts(scene, mesh_size, fine, &|_| true);
-        Self::assemble(scene, mesh_size, fine.len() as u32, parts.into_iter().flatten())
+        let parts = Self::shape_parts(scene, mesh_size, &std::collections::HashMap::new(), &|_| true);
+        Self::assemble(scene, mesh_size, 0, parts.into_iter().flatten())
     }
 
     /// Each shape's patches and vertices apart, in parallel (its indices counted from
     /// its own first, see [`RadiosityMesh::shape_part`]), for the shapes `redo` names
-    /// (`None` for the rest).
+    /// (`None` for the rest). The patches named in `fine` (by shape and the index of
+    /// their first polygon: [`MeshPatch::shape`], [`MeshPatch::local`]) are meshed at
+    /// that fraction of the mesh size (see [`contact`] and [`near_light`]); polygons
+    /// merge into patches as at the full size, so the patches are the same.
     pub(super) fn shape_parts(
         scene: &Scene,
         mesh_size: f32,

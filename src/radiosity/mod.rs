@@ -1077,6 +1077,8 @@ impl Solver<'_> {
                         rays += cast;
                         (seen, all)
                     }
+                    // A parted link is kept only for a flat cell, and the cells are
+                    // the same at every shot of the patch: not reached.
                     _ => (Vec3::ZERO, Vec3::ZERO),
                 };
                 let (o, u) = kept.receive(i, &radiosity, &quarters, parted);

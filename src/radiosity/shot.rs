@@ -489,56 +489,46 @@ impl Solver<'_> {
                     _ => sp.radiosity * f,
                 }
             };
-            if sp.parted && sp.flat && light.is_none() {
+            let parted = sp.parted && sp.flat && light.is_none();
+            // What the cell brings (such that it times `val` is what got through), its
+            // visibility, and whether no ray need be cast to it again.
+            let (e, vis, val, settles) = if parted {
                 // Taken piece by piece, and never sampled again.
                 let (e_all, e_seen, vis, cast) = self.parted_light(sp, field, x, n, f, seed, k as u32);
                 rays += cast;
                 unocc += e_all;
                 occ += e_seen;
-                lit |= vis > 0.0;
-                hidden |= vis < 1.0;
                 let val = if mean(e_all) > 0.0 {
                     mean(e_seen) / mean(e_all)
                 } else {
                     0.0
                 };
-                // What the cell brings, such that it times `val` is what got through.
-                let e = if val > 0.0 { e_seen / val } else { e_all };
-                reached.push((k, e, vis, val));
-                settled.push(true);
-                if let Some(l) = links.as_deref_mut() {
-                    l.push(transfer::Link {
-                        cell: base + k as u32,
-                        f,
-                        vis: val,
-                        quarters: quarter_fs,
-                        parted: true,
-                    });
-                }
-                continue;
-            }
-            unocc += e;
-            let known = ends.and_then(|ends| ends.visibility(base, k));
-            let (vis, val) = match known {
-                Some(v) => (v, v),
-                None => {
-                    let (hits, light, per) = through(k, per, 0);
-                    rays += u64::from(per);
-                    (hits as f32 / per as f32, light / per as f32)
-                }
+                (if val > 0.0 { e_seen / val } else { e_all }, vis, val, true)
+            } else {
+                unocc += e;
+                let known = ends.and_then(|ends| ends.visibility(base, k));
+                let (vis, val) = match known {
+                    Some(v) => (v, v),
+                    None => {
+                        let (hits, light, per) = through(k, per, 0);
+                        rays += u64::from(per);
+                        (hits as f32 / per as f32, light / per as f32)
+                    }
+                };
+                occ += e * val;
+                (e, vis, val, known.is_some())
             };
             lit |= vis > 0.0;
             hidden |= vis < 1.0;
-            occ += e * val;
             reached.push((k, e, vis, val));
-            settled.push(known.is_some());
+            settled.push(settles);
             if let Some(l) = links.as_deref_mut() {
                 l.push(transfer::Link {
                     cell: base + k as u32,
                     f,
                     vis: val,
                     quarters: quarter_fs,
-                    parted: false,
+                    parted,
                 });
             }
         }
