@@ -177,11 +177,14 @@ pub struct SolveArgs {
 }
 
 impl SolveArgs {
+    /// The settings for `scene`; `gathered`: the solution will be read through a
+    /// final gather.
     pub(super) fn settings(
         &self,
         scene: &Scene,
         accel: &dyn crate::accel::Accel,
         seed: u64,
+        gathered: bool,
     ) -> Result<SolveSettings> {
         let mesh_size = self
             .mesh_size
@@ -198,6 +201,7 @@ impl SolveArgs {
             photons: self.photons.unwrap_or(self.quality.photons()),
             max_photons: self.max_photons,
             time_limit: self.solve_time.unwrap_or(0.0),
+            gathered,
         };
         settings.validate()?;
         Ok(settings)

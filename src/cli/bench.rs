@@ -21,7 +21,7 @@ pub(super) fn cmd_bench(a: BenchArgs) -> Result<()> {
             solve: (!a.no_solve)
                 .then(|| {
                     a.solve
-                        .settings(&scene, &crate::accel::Bvh::build(&scene), a.seed)
+                        .settings(&scene, &crate::accel::Bvh::build(&scene), a.seed, false)
                 })
                 .transpose()?,
             solve_scaling: a.solve_scaling,

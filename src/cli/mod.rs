@@ -191,11 +191,12 @@ struct Loaded {
     solution: Option<Solution>,
 }
 
-/// Loads the scene, builds the BVH, and loads or computes the solution if `solve`.
+/// Loads the scene, builds the BVH, and loads or computes the solution if `solve`
+/// (its flags, its seed, and whether a final gather will read it).
 fn load_all(
     scene: &SceneArgs,
     solution: Option<&Path>,
-    solve: Option<(&SolveArgs, u64)>,
+    solve: Option<(&SolveArgs, u64, bool)>,
     quiet: bool,
     t: &mut Timings,
 ) -> Result<Loaded> {
@@ -210,8 +211,8 @@ fn load_all(
     let solution = match (solve, solution) {
         (None, _) => None,
         (Some(_), Some(path)) => Some(t.time("load_solution", || solution::load(path, &scene, &bvh))?),
-        (Some((args, seed)), None) => {
-            let st = args.settings(&scene, &bvh, seed)?;
+        (Some((args, seed, gathered)), None) => {
+            let st = args.settings(&scene, &bvh, seed, gathered)?;
             Some(t.time("solve", || run_solve(&scene, &bvh, &st, quiet))?)
         }
     };

@@ -76,7 +76,8 @@ pub(super) fn cmd_render(a: RenderArgs) -> Result<()> {
     let baseline = a.baseline.as_deref().map(read_baseline).transpose()?;
     with_threads(a.image.threads, |threads| {
         let mut t = Timings::default();
-        let solve = (a.method != Method::Direct).then_some((&a.solve, a.image.seed));
+        let gathered = a.image.gather(a.solve.quality, a.method) > 0;
+        let solve = (a.method != Method::Direct).then_some((&a.solve, a.image.seed, gathered));
         let l = load_all(&a.scene, a.solution.as_deref(), solve, a.quiet, &mut t)?;
         let settings = a.settings(&l.scene, sampler, refine)?;
         let mut display = match &a.display_server {

@@ -15,7 +15,10 @@ pub(super) fn cmd_solve(a: SolveCmdArgs) -> Result<()> {
         let mut t = Timings::default();
         let scene = t.time("load", || load_scene(&a.scene, a.quiet))?;
         let bvh = t.time("accel", || Bvh::build(&scene));
-        let st = a.solve.settings(&scene, &bvh, a.seed)?;
+        // Renders read it through the quality level's gather unless told otherwise.
+        let st = a
+            .solve
+            .settings(&scene, &bvh, a.seed, a.solve.quality.gather() > 0)?;
         let sol = t.time("solve", || run_solve(&scene, &bvh, &st, a.quiet))?;
         t.time("output", || solution::save(&sol, &scene, &a.output))?;
         if let Some(path) = &a.stats {

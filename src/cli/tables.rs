@@ -52,7 +52,7 @@ pub(super) fn cmd_tables(a: TablesArgs) -> Result<()> {
         let l = load_all(
             &a.scene,
             a.solution.as_deref(),
-            Some((&a.solve, a.image.seed)),
+            Some((&a.solve, a.image.seed, a.image.gather.unwrap_or(0) > 0)),
             a.quiet,
             &mut t,
         )?;

@@ -1,7 +1,7 @@
 //! The solution file: the view-independent result of pass 1, saved once and reused
 //! for any view (`radtrace solve`, `radtrace render --solution`).
 //!
-//! # Format (version 7: a textured material's vertices hold radiosity made with the
+//! # Format (version 8: the solve settings gained `gathered`; version 7: a textured material's vertices hold radiosity made with the
 //! texture's mean about each vertex, not over its patch; version 6: the caustic
 //! part of the general radiosity, after it; version
 //! 5: the solve statistics gained `reused_shots`; version 4: the
@@ -13,7 +13,7 @@
 //! | offset | size | what |
 //! | ---: | ---: | --- |
 //! | 0 | 18 | magic: `RADTRACE-SOLUTION\n` |
-//! | 18 | 4 | format version, `u32` (7; version 1 let radiant patches evict lights from the lists) |
+//! | 18 | 4 | format version, `u32` (8; version 1 let radiant patches evict lights from the lists) |
 //! | 22 | 8 | scene fingerprint, `u64` ([`scene_fingerprint`]) |
 //! | 30 | 8 | payload length in bytes, `u64` |
 //! | 38 | 4 | checksum, `u32`: CRC-32 (IEEE) of bytes 18..38 followed by the payload |
@@ -63,7 +63,7 @@ use crate::{Error, Result};
 pub const MAGIC: &[u8; 18] = b"RADTRACE-SOLUTION\n";
 
 /// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 7;
+pub const FORMAT_VERSION: u32 = 8;
 
 /// Bytes before the payload: magic, version, fingerprint, length, checksum.
 const HEADER_LEN: usize = MAGIC.len() + 4 + 8 + 8 + 4;

@@ -93,6 +93,21 @@ use shot::{sky_cells, Found, Levels, Receiver, ShootPoint, Touching, FIRST_LIGHT
 /// (0.0359 -> 0.0386, 1.9 -> 1.75 s).
 const SHOT_RAY_WORTH: f64 = 3.0;
 
+/// [`SHOT_RAY_WORTH`] where the solution is read through a final gather: a shot's ray
+/// is worth a photon's. The gather's rays (128 in `good`) read the solution at many
+/// points round each gather point, so the photons' noise, which the worth above
+/// guards against where the eye reads the solution directly, is mostly averaged
+/// away. 2026-11-28, FLIP against Mitsuba (render seeds 0 / 1) and whole-process
+/// seconds, worth 3 -> 1: Cornell box 0.0225 / 0.0224 -> 0.0234 / 0.0230, 0.95 ->
+/// 0.45 s; paper room (256 x 256) 0.0304 / 0.0310 -> 0.0308 / 0.0311, 2.75 -> 1.12 s;
+/// the hall 0.0255 / 0.0255 -> 0.0263 / 0.0263, 1.9 -> 1.4 s; two lamps 0.0262 /
+/// 0.0285 -> 0.0243 / 0.0238, 1.0 -> 0.86 s; the desk hall 0.0549 / 0.0549 -> 0.0549 /
+/// 0.0553, 1.7 -> 1.33 s; the other scenes in `scenes/` shoot the same patches (their
+/// shots are cheap) or none. At 0.5 the two rooms' wall lost its shots (0.0195 ->
+/// 0.0220) and the glass window too (0.0416 -> 0.0450). Without a gather (`draft`)
+/// the Cornell box at worth 1 fell from 0.0313 / 0.0300 to 0.0456 / 0.0450.
+const GATHERED_SHOT_RAY_WORTH: f64 = 1.0;
+
 /// The photon budget that [`SHOT_RAY_WORTH`] weighs a patch shot against is
 /// `--max-photons`, but at most this many: so a cap above it buys photons without
 /// moving which shots are dear (with the budget itself as the yardstick, the
@@ -145,6 +160,11 @@ pub struct SolveSettings {
     /// it, the photons at all of it (those traced then stand for all).
     #[serde(default)]
     pub time_limit: f32,
+    /// The solution is read through a final gather (the render's `--gather` above 0),
+    /// which averages the photons' noise over its rays: a dear patch shot then gives
+    /// way to photons sooner ([`GATHERED_SHOT_RAY_WORTH`]).
+    #[serde(default)]
+    pub gathered: bool,
 }
 
 impl SolveSettings {
@@ -411,6 +431,10 @@ fn solve_inner(
         0.0
     };
     let mut rays_per_receiver: Option<f64> = None;
+    let worth = match settings.gathered {
+        true => GATHERED_SHOT_RAY_WORTH,
+        false => SHOT_RAY_WORTH,
+    };
     loop {
         let total: f64 = patch_power.iter().sum();
         s.stats.residual = if reference > 0.0 { total / reference } else { 0.0 };
@@ -427,12 +451,11 @@ fn solve_inner(
         let out_of_time = budget > 0.0 && start.elapsed().as_secs_f64() > shots_budget;
         let weak = settings.photons > 0 && !(best_power > settings.tolerance as f64 * reference);
         // A shot that casts rays (not one that reuses its kept first shot) must carry
-        // at least 1 / SHOT_RAY_WORTH of the power per ray that the photon budget
-        // would: where it would cost far more, the photons take the rest.
+        // at least 1 / `worth` of the power per ray that the photon budget would:
+        // where it would cost far more, the photons take the rest.
         let reuses = s.kept.get(best).is_some();
         let rays_before = rays_per_receiver.unwrap_or(settings.shoot_samples as f64) * receiving as f64;
-        let dear =
-            photon_rays > 0.0 && !reuses && best_power * photon_rays * SHOT_RAY_WORTH < total * rays_before;
+        let dear = photon_rays > 0.0 && !reuses && best_power * photon_rays * worth < total * rays_before;
         if !(s.stats.residual > settings.tolerance as f64)
             || s.stats.patch_shots >= settings.max_shots as u64
             || weak

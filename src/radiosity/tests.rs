@@ -16,6 +16,7 @@ fn settings(mesh_size: f32, samples: u32, max_shots: u32) -> SolveSettings {
         photons: 0,
         max_photons: 0,
         time_limit: 0.0,
+        gathered: false,
     }
 }
 
@@ -1821,4 +1822,29 @@ fn midpoints_cast_no_rays_where_their_coarse_vertices_see_all_of_the_light() {
             ) * PI;
         assert!((u - exact).abs() < 0.02 * exact, "vertex {i}: {u} vs {exact}");
     }
+}
+
+/// Where a final gather will read the solution, a patch shot gives way to the photons
+/// once it carries less power per ray than the photon budget would (without one, a
+/// third of it): in the lit box the first patch shot costs between one and three
+/// times the photons' rays for its power at a budget of 20 k photons, so it is shot
+/// only for an ungathered solution; at 60 k both shoot. Either way the photons carry
+/// what is left: the walls absorb what the light emits.
+#[test]
+fn a_gathered_solution_leaves_dearer_patch_shots_to_the_photons() {
+    let rho = 0.6;
+    let s = lit_box(rho);
+    let bvh = Bvh::build(&s);
+    let solved = |cap: u64, gathered: bool| {
+        let mut st = photon_settings(20, 64);
+        st.max_photons = cap;
+        st.gathered = gathered;
+        solve(&s, &bvh, &st, &Silent).unwrap()
+    };
+    let (plain, gathered) = (solved(20_000, false), solved(20_000, true));
+    assert!(plain.stats.patch_shots > 0, "{:?}", plain.stats);
+    assert_eq!(gathered.stats.patch_shots, 0, "{:?}", gathered.stats);
+    assert!(solved(60_000, true).stats.patch_shots > 0);
+    assert_absorbs(&plain, rho, 0.95, 1.02);
+    assert_absorbs(&gathered, rho, 0.95, 1.02);
 }

@@ -17,6 +17,7 @@ pub(crate) fn solve_settings(mesh_size: f32, n: u32) -> SolveSettings {
         photons: 0,
         max_photons: 0,
         time_limit: 0.0,
+        gathered: false,
     }
 }
 

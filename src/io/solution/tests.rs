@@ -18,6 +18,7 @@ fn settings() -> SolveSettings {
         photons: 0,
         max_photons: 0,
         time_limit: 0.0,
+        gathered: false,
     }
 }
 
@@ -198,7 +199,7 @@ fn round_trip_gives_the_same_solution() {
 
     // The header, field by field.
     assert_eq!(&bytes[..18], b"RADTRACE-SOLUTION\n");
-    assert_eq!(&bytes[18..22], &[7, 0, 0, 0]);
+    assert_eq!(&bytes[18..22], &[8, 0, 0, 0]);
     assert_eq!(
         u64::from_le_bytes(bytes[22..30].try_into().unwrap()),
         scene_fingerprint(scene)
@@ -215,8 +216,8 @@ fn round_trip_gives_the_same_solution() {
     // The payload opens with the settings: mesh size 0.5 as f32 bits, n = 2...
     assert_eq!(&bytes[42..46], &0.5f32.to_le_bytes());
     assert_eq!(&bytes[46..50], &2u32.to_le_bytes());
-    // ...followed (after the 44 bytes of settings) by the vertex count of general.
-    assert_eq!(&bytes[86..94], &224u64.to_le_bytes());
+    // ...followed (after the 45 bytes of settings) by the vertex count of general.
+    assert_eq!(&bytes[87..95], &224u64.to_le_bytes());
 
     // Saving again replaces the file with the same bytes (deterministic).
     save(sol, scene, &path).unwrap();
@@ -406,12 +407,12 @@ fn another_version_is_refused_by_number() {
     bytes[18..22].copy_from_slice(&3u32.to_le_bytes());
     let msg = load_err(dir.path(), "v3.rts", &bytes);
     assert!(
-        msg.ends_with("made by another version of radtrace (format 3, this one reads 7)"),
+        msg.ends_with("made by another version of radtrace (format 3, this one reads 8)"),
         "{msg}"
     );
     // Even with nothing after the version field.
-    let msg = load_err(dir.path(), "v8.rts", &[&MAGIC[..], &8u32.to_le_bytes()].concat());
-    assert!(msg.contains("(format 8, this one reads 7)"), "{msg}");
+    let msg = load_err(dir.path(), "v9.rts", &[&MAGIC[..], &9u32.to_le_bytes()].concat());
+    assert!(msg.contains("(format 9, this one reads 8)"), "{msg}");
 }
 
 #[test]
