@@ -820,6 +820,7 @@ impl Solver<'_> {
             light_photons,
             lights,
             aim,
+            spare: Default::default(),
         };
         let order = tracer.order();
         let chunks = order.len() as u64;
@@ -847,14 +848,15 @@ impl Solver<'_> {
                 let photons = tracer.photons(*chunk);
                 halves.add(*chunk, photons.end - photons.start, &deposits);
                 let sum = &mut sums[chunk.kind as usize];
-                for d in deposits {
-                    sum.add(&d, nv);
+                for d in &deposits {
+                    sum.add(d, nv);
                     if trace && d.slot == u8::MAX {
                         if let Some(src) = d.source {
                             self.folded[self.mesh.vertices[d.vertex as usize].patch as usize].insert(src);
                         }
                     }
                 }
+                tracer.recycle(deposits);
             }
             done = end;
             progress.set(done as u64);

@@ -81,6 +81,11 @@ pub struct Tracer<'a> {
     /// The lights, prepared, and where their photons go.
     pub lights: Vec<SampledLight>,
     pub aim: Aim,
+    /// Deposit buffers handed back ([`Self::recycle`]) for the next chunks: a
+    /// chunk's deposits take a few hundred kB, which the system allocator would map
+    /// and zero afresh for each of the thousands of chunks (a tenth of the glass
+    /// window's whole render went to the kernel clearing those pages).
+    pub spare: std::sync::Mutex<Vec<Vec<Deposit>>>,
 }
 
 impl<'a> Tracer<'a> {
@@ -126,7 +131,14 @@ impl<'a> Tracer<'a> {
     /// rays cast. A photon's seed is its index among all the photons, kind after
     /// kind, so the photons are the same in whatever order the chunks are traced.
     pub fn chunk(&self, c: Chunk) -> (Vec<Deposit>, u64) {
-        let mut out = Vec::new();
+        let mut out = self
+            .spare
+            .lock()
+            .map(|mut s| s.pop())
+            .ok()
+            .flatten()
+            .unwrap_or_default();
+        out.clear();
         let mut rays = 0;
         for i in self.photons(c) {
             let seed = shot_seed(self.seed, SEED_BASE + i);
@@ -404,6 +416,13 @@ impl<'a> Tracer<'a> {
         let first: u64 = counts[..c.kind as usize].iter().sum();
         let n = counts[c.kind as usize];
         first + (c.index * CHUNK).min(n)..first + ((c.index + 1) * CHUNK).min(n)
+    }
+
+    /// Hands a chunk's deposit buffer back for the next chunks.
+    pub fn recycle(&self, deposits: Vec<Deposit>) {
+        if let Ok(mut spare) = self.spare.lock() {
+            spare.push(deposits);
+        }
     }
 
     /// Traces `chunks` in parallel; their deposits and rays in the same order.
