@@ -134,6 +134,7 @@ pub struct SolveArgs {
     /// Quality dial: `draft`, `good` or `final` set --shoot-samples (32/64/128),
     /// --solve-tolerance (0.03/0.01/0.005), --photons (16/64/256), --max-level (1/2/3)
     /// and --gather (0/128/1024) at once; any of those flags given on its own wins.
+    /// (`radtrace solve` shoots patches as for that level's gather.)
     #[arg(long, value_enum, default_value_t = Quality::Good)]
     pub(super) quality: Quality,
     /// Largest radiosity element edge, in scene units [default: the bounding-box
