@@ -1113,3 +1113,34 @@ fn the_display_server_gets_each_step_and_the_final_image_in_tevs_protocol() {
         "--display-server",
     );
 }
+
+/// Issue 16's first target: every scene in `scenes/` loads without a warning (an
+/// unsupported plugin or parameter, a file it cannot read, ...). Mitsuba 0.6 notices
+/// are not warnings.
+#[test]
+fn every_repository_scene_loads_without_a_warning() {
+    fn scenes(dir: &Path, out: &mut Vec<PathBuf>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                scenes(&p, out);
+            } else if p.extension().is_some_and(|x| x == "xml") {
+                out.push(p);
+            }
+        }
+    }
+    let mut files = Vec::new();
+    scenes(&PathBuf::from(repo("scenes")), &mut files);
+    files.sort();
+    assert!(files.len() >= 20, "{files:?}");
+    for f in files {
+        let loaded = radtrace::scene::xml::load(&f, &[]).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+        assert!(
+            loaded.warnings.is_empty(),
+            "{}: {:?}",
+            f.display(),
+            loaded.warnings
+        );
+        assert!(!loaded.scene.shapes.is_empty(), "{}", f.display());
+    }
+}
