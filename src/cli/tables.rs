@@ -47,12 +47,15 @@ pub(super) fn cmd_tables(a: TablesArgs) -> Result<()> {
     let total = Instant::now();
     let select = a.select.settings(a.image.area_samples)?;
     let refine = a.refine.refine(false, 0.0, a.solve.quality)?;
+    // The paper's tables are of its method before the last step: a gather only when
+    // asked for (and the solve shoots patches for it).
+    let gather = a.image.gather.unwrap_or(0);
     with_threads(a.image.threads, |_| {
         let mut t = Timings::default();
         let l = load_all(
             &a.scene,
             a.solution.as_deref(),
-            Some((&a.solve, a.image.seed, a.image.gather.unwrap_or(0) > 0)),
+            Some((&a.solve, a.image.seed, gather > 0)),
             a.quiet,
             &mut t,
         )?;
@@ -64,9 +67,7 @@ pub(super) fn cmd_tables(a: TablesArgs) -> Result<()> {
             seed: a.image.seed,
             area_samples: a.image.area_samples,
             max_depth: a.image.max_depth,
-            // The paper's tables are of its method before the last step: a gather
-            // only when asked for.
-            gather: a.image.gather.unwrap_or(0),
+            gather,
             filter: (a.image.filter)
                 .or_else(|| a.views.first().and_then(|&v| l.scene.sensors.get(v)?.filter))
                 .unwrap_or_default(),
