@@ -11,7 +11,7 @@
 use glam::{Vec2, Vec3};
 
 use super::texture::Texture;
-use super::{environment_dir, Rgb};
+use super::{environment_dir, luminance, Rgb};
 
 /// Texels brighter than this share of the brightest are the sun's (their excess over
 /// it). A photographed sun is 10^3 to 10^5 times its sky, so this takes its core and
@@ -38,10 +38,6 @@ pub struct Sun {
     pub solid_angle: f32,
     /// Its share of the map's light.
     pub share: f32,
-}
-
-fn luminance(c: Rgb) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
 /// The texels of `map` in order, row by row: colour, luminance, solid angle and the

@@ -27,6 +27,13 @@ pub fn mean(c: Rgb) -> f32 {
     (c.x + c.y + c.z) / 3.0
 }
 
+/// A colour's luminance, with Mitsuba 3's weights (`mi.luminance`, Rec. 709): the value
+/// a texture gives where Mitsuba reads one channel of it (`eval_1`: a blend's weight, a
+/// mask's opacity, a bump map's height), 1 for white, the value itself for grey.
+pub fn luminance(c: Rgb) -> f32 {
+    0.212671 * c.x + 0.715160 * c.y + 0.072169 * c.z
+}
+
 /// A material, reduced to what the paper's reflection model needs: a diffuse
 /// (Lambertian) part and a perfect mirror part.
 #[derive(Debug, Clone, PartialEq)]
@@ -248,13 +255,13 @@ impl Bsdf {
     }
 
     /// How opaque the surface is at surface parameters `uv` (its `mask`'s opacity, the
-    /// texture's first channel in [0, 1]; 1 without a mask).
+    /// texture's [`luminance`] in [0, 1], as Mitsuba reads it; 1 without a mask).
     pub fn opacity_at(&self, uv: Vec2, textures: &[Texture]) -> f32 {
         self.textures
             .iter()
             .find(|t| t.field == TexField::Opacity)
             .and_then(|t| textures.get(t.texture as usize))
-            .map_or(1.0, |t| t.eval(uv).x.clamp(0.0, 1.0))
+            .map_or(1.0, |t| luminance(t.eval(uv)).clamp(0.0, 1.0))
     }
 
     /// The reflection model at surface parameters `uv`: `kind` with its textured
@@ -309,7 +316,9 @@ impl Bsdf {
                 | (BsdfKind::RoughPlastic { lobe, .. }, TexField::Specular) => {
                     lobe.scale = value.max(Vec3::ZERO)
                 }
-                (BsdfKind::Blend { weight, .. }, TexField::Weight) => *weight = value.x.clamp(0.0, 1.0),
+                (BsdfKind::Blend { weight, .. }, TexField::Weight) => {
+                    *weight = luminance(value).clamp(0.0, 1.0)
+                }
                 _ => {}
             }
         }

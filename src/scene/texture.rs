@@ -7,7 +7,7 @@ use std::sync::LazyLock;
 
 use glam::{Affine2, Vec2, Vec3};
 
-use super::Rgb;
+use super::{luminance, Rgb};
 
 /// How texels between texel centres are found (`filter_type`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -359,13 +359,15 @@ impl Texture {
         if !q.is_finite() {
             return Vec2::ZERO;
         }
-        let lum = |c: Rgb| 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
         let p = q * Vec2::new(self.width as f32, self.height as f32) - 0.5;
         let f = p.floor();
         let w = p - f;
         let (x, y) = (f.x as i64, f.y as i64);
-        let (h00, h10) = (lum(self.texel(x, y)), lum(self.texel(x + 1, y)));
-        let (h01, h11) = (lum(self.texel(x, y + 1)), lum(self.texel(x + 1, y + 1)));
+        let (h00, h10) = (luminance(self.texel(x, y)), luminance(self.texel(x + 1, y)));
+        let (h01, h11) = (
+            luminance(self.texel(x, y + 1)),
+            luminance(self.texel(x + 1, y + 1)),
+        );
         let dx = ((1.0 - w.y) * (h10 - h00) + w.y * (h11 - h01)) * self.width as f32;
         let dy = ((1.0 - w.x) * (h01 - h00) + w.x * (h11 - h10)) * self.height as f32;
         // Through the map's (u, v) transform: the chain rule.

@@ -2438,6 +2438,44 @@ fn a_rough_plastic_takes_its_reflectances_from_bitmaps() {
     );
 }
 
+/// A colour bitmap where Mitsuba reads one value (`eval_1`: a `blendbsdf`'s weight, a
+/// `mask`'s opacity) gives its texel's luminance, as Mitsuba 3 does (a pure red texel
+/// 0.212671, not its red channel 1; the known answer from Mitsuba 3.9's `eval_1` of such
+/// a bitmap).
+#[test]
+fn a_colour_bitmap_read_as_one_value_gives_its_luminance() {
+    let dir = tempfile::tempdir().unwrap();
+    write_png(dir.path(), "t.png", [255, 0, 0], [0, 128, 255]);
+    let bitmap = r#"<texture type="bitmap" name="NAME"><string name="filename" value="t.png"/><boolean name="raw" value="true"/><string name="filter_type" value="nearest"/></texture>"#;
+    let xml = scene(&[
+        r#"<bsdf type="blendbsdf" id="b">"#,
+        &bitmap.replace("NAME", "weight"),
+        r#"<bsdf type="diffuse"/><bsdf type="conductor"/></bsdf>"#,
+        r#"<bsdf type="mask" id="m">"#,
+        &bitmap.replace("NAME", "opacity"),
+        r#"<bsdf type="diffuse"/></bsdf>"#,
+        r#"<shape type="rectangle"><ref id="b"/></shape>"#,
+        r#"<shape type="rectangle"><ref id="m"/></shape>"#,
+    ]);
+    let path = dir.path().join("scene.xml");
+    fs::write(&path, xml).unwrap();
+    let l = load(&path, &[]).unwrap();
+    let s = &l.scene;
+    let blend = &s.bsdfs[s.shapes[0].bsdf as usize];
+    let mask = &s.bsdfs[s.shapes[1].bsdf as usize];
+    let red = 0.212671;
+    let blue = 0.715160 * 128.0 / 255.0 + 0.072169;
+    for (u, want) in [(0.25, red), (0.75, blue)] {
+        let uv = glam::Vec2::new(u, 0.5);
+        match blend.kind_at(uv, 0.0, &s.textures).into_owned() {
+            BsdfKind::Blend { weight, .. } => assert!((weight - want).abs() < 1e-5, "{u}: {weight}"),
+            k => panic!("{k:?}"),
+        }
+        let o = mask.opacity_at(uv, &s.textures);
+        assert!((o - want).abs() < 1e-5, "{u}: {o}");
+    }
+}
+
 /// `mask`: its opacity (a number, as a one-texel image, or a bitmap) over its nested
 /// bsdf; shadow rays pass masked shapes (dimmed by the open share); an opacity
 /// outside [0, 1] is an error naming its line.
