@@ -5,6 +5,7 @@
 
 use std::collections::HashMap;
 
+use crate::scene::texture::srgb_to_linear;
 use glam::{Mat4, Vec3, Vec4};
 
 /// A scene file's `version` attribute as (major, minor, patch). Err: the message.
@@ -142,6 +143,35 @@ pub fn one_or_three(s: &str) -> Result<Vec3, String> {
         3 => Ok(Vec3::new(v[0], v[1], v[2])),
         n => Err(format!("expected 1 or 3 numbers, found {n} in '{}'", s.trim())),
     }
+}
+
+/// Mitsuba 0.6's `<srgb>` value, gamma-encoded sRGB as `#rrggbb` (hex bytes) or 1 or 3
+/// numbers in [0, 1], as the linear colour it stands for (the sRGB curve undone per
+/// channel, as Mitsuba 0.6 reads it).
+pub fn srgb(s: &str) -> Result<Vec3, String> {
+    let t = s.trim();
+    let encoded = match t.strip_prefix('#') {
+        Some(hex) => {
+            let bytes = (hex.len() == 6 && hex.is_ascii())
+                .then(|| {
+                    (0..3)
+                        .map(|i| u8::from_str_radix(&hex[2 * i..2 * i + 2], 16))
+                        .collect::<Result<Vec<u8>, _>>()
+                })
+                .and_then(|r| r.ok())
+                .ok_or_else(|| format!("'{t}' is not a colour '#rrggbb' of hex digits"))?;
+            Vec3::new(bytes[0] as f32, bytes[1] as f32, bytes[2] as f32) / 255.0
+        }
+        None => one_or_three(t)?,
+    };
+    if !encoded.is_finite() || encoded.min_element() < 0.0 {
+        return Err(format!("'{t}' is not a colour of nonnegative numbers"));
+    }
+    Ok(Vec3::new(
+        srgb_to_linear(encoded.x),
+        srgb_to_linear(encoded.y),
+        srgb_to_linear(encoded.z),
+    ))
 }
 
 /// A 4x4 matrix from 16 numbers in row-major order, or a 3x3 linear part from 9.

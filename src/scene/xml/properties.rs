@@ -212,6 +212,14 @@ impl Loader {
                     let val = self.value(s, c, t)?;
                     push_prop(&mut obj, name, val, c)?;
                 }
+                // Mitsuba 0.6's gamma-encoded colour (Mitsuba 3 has no such element).
+                "srgb" if s.legacy => {
+                    self.check_attrs(s, c, &["name", "value"]);
+                    let name = self.prop_name(s, c, node)?;
+                    let v = self.attr_req(s, c, "value")?;
+                    let rgb = parse::srgb(&v).map_err(|m| s.err_attr(c, "value", format!("<srgb>: {m}")))?;
+                    push_prop(&mut obj, name, Val::Rgb(rgb), c)?;
+                }
                 "texture" => {
                     let name = self.prop_name(s, c, node)?;
                     let v = self.texture(s, c)?;

@@ -2067,6 +2067,39 @@ fn legacy_upgrade_edge_cases() {
     assert!(l.notes.is_empty());
 }
 
+/// Mitsuba 0.6's `<srgb>`: `#rrggbb` or numbers, gamma-encoded, read as the linear
+/// colour (0x80 -> 0.2158605, 0.5 -> 0.2140411, as Mitsuba decodes 8-bit sRGB); a bad
+/// value is an error naming its line; a Mitsuba 3 file, whose Mitsuba has no `<srgb>`,
+/// keeps the warning that names the element.
+#[test]
+fn a_mitsuba_0_6_srgb_colour_is_read_linear() {
+    let reflectance = |version: &str, value: &str| {
+        load_raw(
+            &format!(
+                "<scene version=\"{version}\">\n{SENSOR}\n<shape type=\"cube\"><bsdf type=\"diffuse\">\
+                 <srgb name=\"reflectance\" value=\"{value}\"/></bsdf></shape>\n</scene>"
+            ),
+            &[],
+        )
+        .map(|l| {
+            let k = &l.scene.bsdfs[l.scene.shapes[0].bsdf as usize].kind;
+            (k.diffuse_albedo(), l.warnings)
+        })
+    };
+    let (rho, warnings) = reflectance("0.6.0", "#80ff00").unwrap();
+    assert!(close(rho, Vec3::new(0.2158605, 1.0, 0.0)), "{rho}");
+    assert!(!warnings.iter().any(|w| w.contains("srgb")), "{warnings:?}");
+    let (rho, _) = reflectance("0.5.0", "0.5").unwrap();
+    assert!(close(rho, Vec3::splat(0.2140411)), "{rho}");
+    for bad in ["#80ff0", "#gg0000", "0.5, 0.5"] {
+        let e = reflectance("0.6.0", bad).unwrap_err().to_string();
+        assert!(e.contains("scene.xml:3:") && e.contains("<srgb>"), "{bad}: {e}");
+    }
+    let (rho, warnings) = reflectance("3.0.0", "#80ff00").unwrap();
+    assert!(close(rho, Vec3::splat(0.5)), "{rho}");
+    assert!(warnings.iter().any(|w| w.contains("<srgb>")), "{warnings:?}");
+}
+
 /// Writes a 2 x 1 PNG beside the scene: texel 0 (left) bytes `a`, texel 1 `b`.
 fn write_png(dir: &std::path::Path, name: &str, a: [u8; 3], b: [u8; 3]) {
     let img = image::RgbImage::from_fn(2, 1, |x, _| image::Rgb(if x == 0 { a } else { b }));
