@@ -8,7 +8,6 @@ use std::f32::consts::{PI, TAU};
 
 use glam::{Mat4, Vec2, Vec3};
 
-use crate::geometry::quadric::CUBE_FACES;
 use crate::geometry::{Patch, Quadric, QuadricKind, TriMesh};
 
 /// Pieces along each side of a sphere's cube face or a disk's square: the radiosity
@@ -43,22 +42,81 @@ pub fn rectangle() -> TriMesh {
     }
 }
 
-/// Mitsuba's `cube`: `[-1,1]^3`, normals outward; six patches.
+/// Mitsuba's `cube`: `[-1,1]^3`, normals outward; six patches. Its faces' corners and
+/// (u, v) are Mitsuba 3's, corner for corner (`mi.traverse` of a `cube`: per face four
+/// corners running round it counter-clockwise seen from outside, split along the
+/// diagonal from the first to the third), so a texture or an anisotropic lobe lies on
+/// each face as Mitsuba lays it.
 pub fn cube() -> TriMesh {
-    // For each face: its outward normal n and two axes u, v with u x v = n, so the
-    // corners -u-v, +u-v, +u+v, -u+v run counter-clockwise seen from outside (the
-    // faces a sphere is parameterised by).
-    let faces = CUBE_FACES.map(|(n, u, v)| (n.as_vec3(), u.as_vec3(), v.as_vec3()));
+    // Per face: its outward normal, then its corners with their (u, v).
+    type Corner = ([i8; 3], [u8; 2]);
+    const FACES: [([i8; 3], [Corner; 4]); 6] = [
+        (
+            [0, -1, 0],
+            [
+                ([1, -1, -1], [0, 1]),
+                ([1, -1, 1], [1, 1]),
+                ([-1, -1, 1], [1, 0]),
+                ([-1, -1, -1], [0, 0]),
+            ],
+        ),
+        (
+            [0, 1, 0],
+            [
+                ([1, 1, -1], [0, 1]),
+                ([-1, 1, -1], [1, 1]),
+                ([-1, 1, 1], [1, 0]),
+                ([1, 1, 1], [0, 0]),
+            ],
+        ),
+        (
+            [1, 0, 0],
+            [
+                ([1, -1, -1], [0, 1]),
+                ([1, 1, -1], [1, 1]),
+                ([1, 1, 1], [1, 0]),
+                ([1, -1, 1], [0, 0]),
+            ],
+        ),
+        (
+            [0, 0, 1],
+            [
+                ([1, -1, 1], [0, 1]),
+                ([1, 1, 1], [1, 1]),
+                ([-1, 1, 1], [1, 0]),
+                ([-1, -1, 1], [0, 0]),
+            ],
+        ),
+        (
+            [-1, 0, 0],
+            [
+                ([-1, -1, 1], [0, 1]),
+                ([-1, 1, 1], [1, 1]),
+                ([-1, 1, -1], [1, 0]),
+                ([-1, -1, -1], [0, 0]),
+            ],
+        ),
+        (
+            [0, 0, -1],
+            [
+                ([1, 1, -1], [0, 1]),
+                ([1, -1, -1], [1, 1]),
+                ([-1, -1, -1], [1, 0]),
+                ([-1, 1, -1], [0, 0]),
+            ],
+        ),
+    ];
+    let v3 = |a: [i8; 3]| Vec3::new(a[0].into(), a[1].into(), a[2].into());
     let mut m = TriMesh::default();
-    for (f, (n, u, v)) in faces.into_iter().enumerate() {
+    for (f, (n, corners)) in FACES.into_iter().enumerate() {
         let base = m.positions.len() as u32;
-        for (su, sv) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-            m.positions.push(n + su * u + sv * v);
-            m.normals.push(n);
-            m.uvs.push(Vec2::new(0.5 * (su + 1.0), 0.5 * (sv + 1.0)));
+        for (p, uv) in corners {
+            m.positions.push(v3(p));
+            m.normals.push(v3(n));
+            m.uvs.push(Vec2::new(uv[0].into(), uv[1].into()));
         }
         m.indices.push([base, base + 1, base + 2]);
-        m.indices.push([base, base + 2, base + 3]);
+        m.indices.push([base + 3, base, base + 2]);
         m.tri_patch.extend([f as u32; 2]);
         m.patches
             .push(Patch::Polygon(vec![base, base + 1, base + 2, base + 3]));
@@ -258,6 +316,40 @@ mod tests {
         }
         assert!(m.normals.iter().all(|n| *n == Vec3::NEG_Z));
         assert_eq!(m.patches, vec![Patch::Polygon(vec![3, 2, 1, 0])]);
+    }
+
+    /// The cube's (u, v) as Mitsuba 3 lays them (its `cube` read with `mi.traverse`):
+    /// on the +z face u runs along +y and v along +x, on the top (+y) face u along -x
+    /// and v along -z, on the -x face u along +y and v along +z; corner (1, -1, 1) of
+    /// the +z face is (0, 1). Textures and anisotropic lobes lie on it as Mitsuba's.
+    #[test]
+    fn cube_faces_have_mitsubas_uv() {
+        let m = cube();
+        let axes = |n: Vec3| {
+            let t = (0..m.triangle_count())
+                .find(|&t| (geometric_normal(&m, t).normalize() - n).length() < 1e-6)
+                .unwrap();
+            let [a, b, c] = m.indices[t].map(|i| i as usize);
+            let (dp1, dp2) = (m.positions[b] - m.positions[a], m.positions[c] - m.positions[a]);
+            let (du1, du2) = (m.uvs[b] - m.uvs[a], m.uvs[c] - m.uvs[a]);
+            let det = du1.x * du2.y - du1.y * du2.x;
+            let dpdu = (dp1 * du2.y - dp2 * du1.y) / det;
+            let dpdv = (dp2 * du1.x - dp1 * du2.x) / det;
+            (dpdu, dpdv)
+        };
+        for (n, u, v) in [
+            (Vec3::Z, Vec3::Y, Vec3::X),
+            (Vec3::Y, Vec3::NEG_X, Vec3::NEG_Z),
+            (Vec3::NEG_X, Vec3::Y, Vec3::Z),
+        ] {
+            let (dpdu, dpdv) = axes(n);
+            assert!((dpdu - 2.0 * u).length() < 1e-6, "{n}: dp/du {dpdu}");
+            assert!((dpdv - 2.0 * v).length() < 1e-6, "{n}: dp/dv {dpdv}");
+        }
+        let corner = (0..m.positions.len())
+            .find(|&i| m.positions[i] == Vec3::new(1.0, -1.0, 1.0) && m.normals[i] == Vec3::Z)
+            .unwrap();
+        assert_eq!(m.uvs[corner], Vec2::new(0.0, 1.0));
     }
 
     #[test]
