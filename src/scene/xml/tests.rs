@@ -2614,3 +2614,38 @@ fn principled_reads_as_a_plastic_a_metal_or_their_blend() {
     );
     assert!(m.contains("'roughness'"), "{m}");
 }
+
+/// An integrator's `max_depth` that cuts light off (here 3, or 4 in an integrator
+/// nested in another, or a parameter) is noted with its line, since radtrace renders
+/// every bounce; no limit (-1) or a deep one (65, as Bitterli's scenes give) is not.
+#[test]
+fn a_short_max_depth_of_the_integrator_is_noted() {
+    let notes = |integrator: &str| {
+        load_raw(
+            &format!("<scene version=\"3.0.0\">\n<default name=\"d\" value=\"5\"/>\n{SENSOR}\n{integrator}\n</scene>"),
+            &[],
+        )
+        .unwrap()
+        .notes
+        .into_iter()
+        .filter(|n| n.contains("max_depth"))
+        .collect::<Vec<_>>()
+    };
+    let n = notes(r#"<integrator type="path"><integer name="max_depth" value="3"/></integrator>"#);
+    assert!(
+        n.len() == 1 && n[0].contains("scene.xml:4:") && n[0].contains("max_depth 3"),
+        "{n:?}"
+    );
+    let n = notes(
+        r#"<integrator type="adaptive"><integrator type="volpath"><integer name="max_depth" value="4"/></integrator></integrator>"#,
+    );
+    assert!(n.len() == 1 && n[0].contains("max_depth 4"), "{n:?}");
+    let n = notes(r#"<integrator type="path"><integer name="max_depth" value="$d"/></integrator>"#);
+    assert!(n.len() == 1 && n[0].contains("max_depth 5"), "{n:?}");
+    for deep in ["-1", "65"] {
+        let n = notes(&format!(
+            r#"<integrator type="path"><integer name="max_depth" value="{deep}"/></integrator>"#
+        ));
+        assert!(n.is_empty(), "{deep}: {n:?}");
+    }
+}
