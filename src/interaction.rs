@@ -5,7 +5,7 @@ use glam::{Vec2, Vec3};
 use std::borrow::Cow;
 
 use crate::accel::{Accel, Hit, Ray};
-use crate::scene::{Bsdf, BsdfKind, Scene};
+use crate::scene::{Bsdf, BsdfKind, Light, Rgb, Scene};
 
 /// The local geometry at a ray hit.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -113,6 +113,24 @@ impl SurfacePoint {
             d
         } else {
             fallback()
+        }
+    }
+
+    /// The radiance the area light of this point's shape sends from here: its
+    /// texture's value at this point (over its footprint) where it has one, else its
+    /// radiance; `None` on a shape that is no area light. (Whether the ray meets its
+    /// emitting side is the caller's test.)
+    pub fn emitted(&self, scene: &Scene) -> Option<Rgb> {
+        let e = scene.shapes[self.shape as usize].emitter?;
+        match scene.lights.get(e as usize)? {
+            Light::Area { texture: Some(t), .. } => Some(
+                scene
+                    .textures
+                    .get(*t as usize)?
+                    .eval_over(self.uv(scene), self.uv_footprint(scene)),
+            ),
+            Light::Area { radiance, .. } => Some(*radiance),
+            _ => None,
         }
     }
 

@@ -86,6 +86,7 @@ pub fn scene_with(
         lights.push(Light::Area {
             shape: shape as u32,
             radiance,
+            texture: None,
         });
     }
     s.lights = lights;

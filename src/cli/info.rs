@@ -48,7 +48,7 @@ pub(super) fn cmd_info(a: InfoArgs) -> Result<()> {
                 "  [{i}] spot at {position:.3} towards {direction:.3} intensity {intensity:.3} cutoff {:.1} deg",
                 cutoff_angle.to_degrees()
             ),
-            Light::Area { shape, radiance } => say!(
+            Light::Area { shape, radiance, .. } => say!(
                 "  [{i}] area on '{}' (area {:.4}) radiance {radiance:.3}",
                 scene.shapes[*shape as usize].name,
                 scene.shapes[*shape as usize].mesh.area()

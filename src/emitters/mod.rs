@@ -158,7 +158,7 @@ impl SampledLight {
                     inv_transition: if width > 0.0 { 1.0 / width } else { f32::INFINITY },
                 }
             }
-            Light::Area { shape, radiance } => {
+            Light::Area { shape, radiance, .. } => {
                 let mesh = &scene.shapes[shape as usize].mesh;
                 if let Some(q) = mesh.quadric {
                     return SampledLight::Area(AreaEmitter::exact(q, radiance));
@@ -747,7 +747,7 @@ pub fn light_power(scene: &Scene, light: &Light) -> f64 {
             };
             2.0 * std::f64::consts::PI * solid * mean(intensity) as f64
         }
-        Light::Area { shape, radiance } => {
+        Light::Area { shape, radiance, .. } => {
             std::f64::consts::PI * mean(radiance) as f64 * scene.shapes[shape as usize].mesh.area() as f64
         }
         Light::Directional { .. } | Light::Environment { .. } => infinite::power(scene, light),

@@ -250,7 +250,7 @@ impl Fingerprint {
                 self.f32(*cutoff_angle);
                 self.f32(*beam_width);
             }
-            Light::Area { shape, radiance } => {
+            Light::Area { shape, radiance, .. } => {
                 self.u8(2);
                 self.u32(*shape);
                 self.vec3(*radiance);

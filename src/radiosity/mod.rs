@@ -660,7 +660,7 @@ impl Solver<'_> {
             Light::Spot {
                 position, intensity, ..
             } => vec![ShootPoint::point(position, intensity)],
-            Light::Area { shape, radiance } => {
+            Light::Area { shape, radiance, .. } => {
                 let first = self.mesh.shape_first_patch[shape as usize] as usize;
                 let last = self
                     .mesh

@@ -187,14 +187,9 @@ impl<'a> Tracer<'a> {
                 sp = sp.with_footprint(scale.length(1.0, hit.t * ray.dir.length()));
             }
         }
-        let shape = &self.scene.shapes[hit.shape as usize];
         let mut l = Vec3::ZERO;
         if sp.front && emit {
-            if let Some(e) = shape.emitter {
-                if let crate::scene::Light::Area { radiance, .. } = self.scene.lights[e as usize] {
-                    l += radiance;
-                }
-            }
+            l += sp.emitted(self.scene).unwrap_or(Vec3::ZERO);
         }
         let (bsdf, kind) = sp.material(self.scene);
         if let Some((on, through)) = self.through_mask(&sp, bsdf, ray, seed) {
@@ -564,7 +559,7 @@ impl<'a> Tracer<'a> {
                 &self.scene.lights[e as usize],
                 self.sources[e as usize].density(ray.origin, sp.p, sp.ng),
             ) {
-                (crate::scene::Light::Area { radiance, .. }, Some(p_l)) => Some((e, *radiance, p_l)),
+                (crate::scene::Light::Area { .. }, Some(p_l)) => sp.emitted(self.scene).map(|l| (e, l, p_l)),
                 _ => None,
             },
             _ => None,
@@ -895,6 +890,7 @@ mod tests {
             vec![Light::Area {
                 shape: 1,
                 radiance: Vec3::splat(le),
+                texture: None,
             }],
         );
         s.shapes[1].emitter = Some(0);
@@ -1068,6 +1064,7 @@ mod tests {
         let light = Light::Area {
             shape: 1,
             radiance: Vec3::splat(le),
+            texture: None,
         };
         // Lambert's formula for a square of half side s centred at height h above
         // the point: four corner rectangles, each F = (1/2pi)(a/sqrt(1+a^2)
@@ -1162,6 +1159,7 @@ mod tests {
             vec![Light::Area {
                 shape: 1,
                 radiance: Vec3::new(1.0, 2.0, 3.0),
+                texture: None,
             }],
         );
         s.shapes[1].emitter = Some(0);

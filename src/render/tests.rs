@@ -1110,3 +1110,58 @@ fn a_plastic_floor_under_a_uniform_sky_shows_its_albedo_towards_the_view() {
         );
     }
 }
+
+/// An area light with a texture of its radiance (a screen) shows each texel where the
+/// camera sees it, as Mitsuba's `area` emitter of a `bitmap` radiance does; the light it
+/// sends is the texture's mean (the light's `radiance`).
+#[test]
+fn a_textured_area_light_shows_its_texture_where_seen() {
+    use crate::scene::texture::TexFilter;
+    use crate::scene::{BsdfKind, Light, Texture};
+    let (a, b) = ([4.0, 1.0, 0.5], [0.5, 2.0, 6.0]);
+    let mut screen = crate::testutil::square(-1.0, 1.0, -1.0, 1.0, 0.0, false);
+    screen.uvs = screen
+        .positions
+        .iter()
+        .map(|p| p.truncate() * 0.5 + 0.5)
+        .collect();
+    let mean = (Vec3::from(a) + Vec3::from(b)) * 0.5;
+    let mut s = crate::testutil::scene_with(
+        vec![(
+            screen,
+            BsdfKind::Diffuse {
+                reflectance: Vec3::ZERO,
+            },
+        )],
+        Vec::new(),
+        &[(0, mean)],
+    );
+    let mut t = Texture::from_linear("screen", 2, 1, vec![a, b]).unwrap();
+    t.filter = TexFilter::Nearest;
+    s.textures.push(t);
+    let Light::Area { texture, .. } = &mut s.lights[0] else {
+        panic!("{:?}", s.lights[0]);
+    };
+    *texture = Some(0);
+    s.sensors.push(crate::testutil::looking(
+        Vec3::new(0.0, 0.0, 3.0),
+        Vec3::ZERO,
+        20.0,
+        48,
+        48,
+    ));
+    let mut st = settings(Method::Direct);
+    st.spp = 1;
+    let img = draw(&s, &Bvh::build(&s), &st, None).image;
+    // u runs along +x: texel a on the left half of the screen, b on the right.
+    let (w, h) = (img.width as usize, img.height as usize);
+    for y in (h / 8)..(7 * h / 8) {
+        for (x, want) in [(w / 8, a), (w / 3, a), (2 * w / 3, b), (7 * w / 8, b)] {
+            let got = img.pixels[y * w + x];
+            assert!(
+                (got - Vec3::from(want)).length() < 1e-4,
+                "({x}, {y}): {got} not {want:?}"
+            );
+        }
+    }
+}

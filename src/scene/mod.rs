@@ -368,8 +368,12 @@ pub enum Light {
     Area {
         /// Index of the shape in [`Scene::shapes`].
         shape: u32,
-        /// Emitted radiance Le.
+        /// Emitted radiance Le (a texture's mean, where `texture` gives it).
         radiance: Rgb,
+        /// A texture of the radiance over the surface (index into
+        /// [`Scene::textures`]): what a ray that meets the light sees there. Its mean,
+        /// `radiance`, is what the light sends to the scene (pass 1 and shadow rays).
+        texture: Option<u32>,
     },
     /// Light from infinitely far along one direction (`directional`: the sun).
     Directional {

@@ -317,6 +317,7 @@ fn fingerprint_is_stable_and_sees_what_matters() {
             s.lights.push(Light::Area {
                 shape: 1,
                 radiance: Vec3::ONE,
+                texture: None,
             });
             s.shapes[1].emitter = Some(1);
         }),

@@ -284,6 +284,7 @@ fn anti_aliasing_samples_share_the_shadow_rays_of_a_penumbra_without_losing_it()
     sc.lights.push(Light::Area {
         shape: base,
         radiance: Vec3::splat(radiance),
+        texture: None,
     });
     let st = settings(w, h, true);
     let out = run(&sc, &st);

@@ -482,12 +482,11 @@ impl Loader {
                 continue;
             };
             if let Ok(d @ 1..MAX_DEPTH_NOTED) = parse::integer(&v) {
-                self.notes.push(format!(
-                    "{}:{}: the integrator stops paths at max_depth {d}; radtrace renders every \
-                     bounce of light, so Mitsuba's image of this file lacks light that radtrace's has",
-                    s.path.display(),
-                    s.pos(n)
-                ));
+                let msg = format!(
+                    "the integrator stops paths at max_depth {d}; radtrace renders every bounce of \
+                     light, so Mitsuba's image of this file lacks light that radtrace's has"
+                );
+                self.note(s, n, msg);
             }
         }
         Ok(())

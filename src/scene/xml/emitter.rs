@@ -11,9 +11,10 @@ use crate::scene::{Light, Rgb};
 use crate::Result;
 
 impl Loader {
-    /// An `<emitter>` inside a shape: the radiance of an `area` emitter, or `None`
-    /// (with a warning) for any other type.
-    pub(super) fn area_emitter(&mut self, s: Src, c: Node) -> Result<Option<Rgb>> {
+    /// An `<emitter>` inside a shape: the radiance of an `area` emitter (a texture's
+    /// mean) and the texture, if it has one, or `None` (with a warning) for any other
+    /// type.
+    pub(super) fn area_emitter(&mut self, s: Src, c: Node) -> Result<Option<(Rgb, Option<u32>)>> {
         self.check_attrs(s, c, &["type", "id", "name"]);
         let ty = self.attr_req(s, c, "type")?;
         self.register(s, c, Target::Other("emitter"))?;
@@ -27,8 +28,9 @@ impl Loader {
         }
         let obj = self.collect(s, c, "emitter 'area'".into())?;
         let radiance = obj.emission("radiance")?;
+        let texture = obj.texture_image("radiance");
         self.finish(&obj);
-        Ok(Some(radiance))
+        Ok(Some((radiance, texture)))
     }
 
     /// Adds `light` with its `id` (for tables and messages).

@@ -134,7 +134,7 @@ impl Loader {
 
         let mut bsdf = None;
         let mut null = false;
-        let mut emitter: Option<(Rgb, Node)> = None;
+        let mut emitter: Option<(Rgb, Option<u32>, Node)> = None;
         for ch in &obj.children {
             match ch {
                 Child::Elem(n) if tag(*n) == "bsdf" => {
@@ -165,11 +165,11 @@ impl Loader {
                     ))
                 }
                 Child::Elem(n) if tag(*n) == "emitter" => {
-                    if let Some(r) = self.area_emitter(s, *n)? {
+                    if let Some((r, t)) = self.area_emitter(s, *n)? {
                         if emitter.is_some() {
                             return Err(s.err(*n, format!("shape '{name}' has more than one area emitter")));
                         }
-                        emitter = Some((r, *n));
+                        emitter = Some((r, t, *n));
                     }
                 }
                 Child::Elem(n) => {
@@ -185,7 +185,7 @@ impl Loader {
         if null {
             match emitter {
                 None => return Ok(()),
-                Some((_, n)) => self.warn(
+                Some((_, _, n)) => self.warn(
                     s,
                     n,
                     format!(
@@ -202,7 +202,7 @@ impl Loader {
         };
         let light = match emitter {
             None => None,
-            Some((radiance, n)) => {
+            Some((radiance, texture, n)) => {
                 let area = mesh.area();
                 if !(area > 0.0 && area.is_finite()) {
                     return Err(s.err(n, format!("area emitter on shape '{name}', which has zero area")));
@@ -210,9 +210,18 @@ impl Loader {
                 if radiance == Vec3::ZERO {
                     self.warn(s, n, format!("area emitter on '{name}' has zero radiance"));
                 }
+                if texture.is_some() {
+                    let msg = format!(
+                        "area emitter on '{name}': its radiance texture shows where the light is seen; \
+                         it lights the scene with the texture's mean ({:.4}, {:.4}, {:.4})",
+                        radiance.x, radiance.y, radiance.z
+                    );
+                    self.note(s, n, msg);
+                }
                 self.scene.lights.push(Light::Area {
                     shape: index as u32,
                     radiance,
+                    texture,
                 });
                 Some(self.scene.lights.len() as u32 - 1)
             }

@@ -481,7 +481,8 @@ fn area_emitter_links_shape_and_light() {
         l.scene.lights[0],
         Light::Area {
             shape: 0,
-            radiance: Vec3::new(10.0, 8.0, 6.0)
+            radiance: Vec3::new(10.0, 8.0, 6.0),
+            texture: None,
         }
     );
     assert!(matches!(l.scene.lights[1], Light::Point { .. }));
@@ -509,10 +510,10 @@ fn unsupported_emitters_warn() {
     assert!(has_warning(&l, 4, "zero intensity"));
 }
 
-/// An image texture where radtrace takes only its mean warns, naming the line: an
-/// area light's radiance (a checkerboard of 4 and 2 shines 3 all over) and a
+/// An image texture where radtrace takes only its mean warns, naming the line: a
 /// dielectric's transmittance. A diffuse reflectance texture, read texel by texel,
-/// does not.
+/// does not, nor an area light's radiance (a checkerboard of 4 and 2 shines 3, its
+/// mean, and shows its squares where seen: a note says so).
 #[test]
 fn textures_taken_as_their_mean_warn() {
     let checker = |name: &str| {
@@ -536,17 +537,19 @@ fn textures_taken_as_their_mean_warn() {
         &diffuse,
         r#"</bsdf></shape>"#,
     ]);
-    assert!(has_warning(
-        &l,
-        4,
-        "a texture as 'radiance' is not supported: its mean (3.0000"
-    ));
+    assert!(
+        l.notes
+            .iter()
+            .any(|n| n.contains("scene.xml:3:") && n.contains("mean (3.0000")),
+        "{:?}",
+        l.notes
+    );
     assert!(has_warning(
         &l,
         7,
         "a texture as 'specular_transmittance' is not supported"
     ));
-    assert_eq!(l.warnings.len(), 2, "{:?}", l.warnings);
+    assert_eq!(l.warnings.len(), 1, "{:?}", l.warnings);
     match &l.scene.lights[..] {
         [Light::Area { radiance, .. }] => assert_eq!(*radiance, Vec3::splat(3.0)),
         other => panic!("{other:?}"),
@@ -1828,7 +1831,8 @@ fn fixture_box_loads_completely() {
         sc.lights[0],
         Light::Area {
             shape: 5,
-            radiance: Vec3::new(15.0, 12.0, 9.0)
+            radiance: Vec3::new(15.0, 12.0, 9.0),
+            texture: None,
         }
     );
     assert!(matches!(sc.lights[1], Light::Spot { .. }));
@@ -2647,5 +2651,44 @@ fn a_short_max_depth_of_the_integrator_is_noted() {
             r#"<integrator type="path"><integer name="max_depth" value="{deep}"/></integrator>"#
         ));
         assert!(n.is_empty(), "{deep}: {n:?}");
+    }
+}
+
+/// An area light's `bitmap` radiance is kept as its texture (shown where the light is
+/// seen), its mean the light's radiance; a note says so, and no warning.
+#[test]
+fn a_bitmap_radiance_of_an_area_light_is_its_texture() {
+    let dir = tempfile::tempdir().unwrap();
+    write_png(dir.path(), "t.png", [255, 0, 0], [0, 0, 255]);
+    let xml = scene(&[
+        r#"<shape type="rectangle"><emitter type="area"><texture type="bitmap" name="radiance">"#,
+        r#"<string name="filename" value="t.png"/></texture></emitter></shape>"#,
+    ]);
+    let path = dir.path().join("scene.xml");
+    fs::write(&path, xml).unwrap();
+    let l = load(&path, &[]).unwrap();
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+    assert!(
+        l.notes
+            .iter()
+            .any(|n| n.contains("scene.xml:3:") && n.contains("radiance texture")),
+        "{:?}",
+        l.notes
+    );
+    match &l.scene.lights[..] {
+        [Light::Area {
+            radiance,
+            texture: Some(t),
+            ..
+        }] => {
+            assert!(close(*radiance, Vec3::new(0.5, 0.0, 0.5)), "{radiance}");
+            let tex = &l.scene.textures[*t as usize];
+            assert!(
+                close(tex.eval(glam::Vec2::new(0.25, 0.5)), Vec3::X),
+                "{}",
+                tex.eval(glam::Vec2::new(0.25, 0.5))
+            );
+        }
+        other => panic!("{other:?}"),
     }
 }
