@@ -14,7 +14,7 @@ use super::properties::{Obj, Prop, Target, TexVal, Val};
 use crate::error::{Error, Pos};
 use crate::scene::spectrum::{self, Quantity};
 use crate::scene::texture::{TexFilter, TexWrap, Texture};
-use crate::scene::Rgb;
+use crate::scene::{luminance, Rgb};
 use crate::Result;
 
 impl<'a, 'i> Obj<'a, 'i> {
@@ -57,8 +57,9 @@ impl<'a, 'i> Obj<'a, 'i> {
         self.nonnegative(name, 1.0)
     }
 
-    /// A scalar that Mitsuba reads as a texture (`weight`): a float, or the mean of a
-    /// colour or texture.
+    /// A scalar that Mitsuba reads as a texture (`weight`), as its `eval_1` reads it: a
+    /// float, a colour's mean (an `rgb` of (1, 0, 0) weighs 1/3), or the luminance of
+    /// a bitmap's mean.
     pub(super) fn scalar(&self, name: &str) -> Result<Option<f32>> {
         match self.get(name) {
             None => Ok(None),
@@ -66,7 +67,7 @@ impl<'a, 'i> Obj<'a, 'i> {
                 Val::Float(v) => Ok(Some(v)),
                 Val::Int(i) => Ok(Some(i as f32)),
                 Val::Rgb(c) => Ok(Some(c.element_sum() / 3.0)),
-                Val::Texture(TexVal { mean: Some(c), .. }) => Ok(Some(c.element_sum() / 3.0)),
+                Val::Texture(TexVal { mean: Some(c), .. }) => Ok(Some(luminance(c))),
                 Val::Texture(TexVal { mean: None, .. }) => Ok(None),
                 _ => Err(self.mismatch(p, "a float")),
             },
