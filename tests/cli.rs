@@ -470,6 +470,7 @@ fn the_repository_scenes_load_and_render_small() {
         ("scenes/hall/hall.xml", vec![]),
         ("scenes/glass-bulb/glass-bulb.xml", vec![]),
         ("scenes/brushed/brushed.xml", vec![]),
+        ("scenes/daylit-room/daylit-room.xml", vec![]),
     ] {
         let out = d.path().join("r.exr");
         let (scene_path, outs) = (repo(scene), s(&out));
