@@ -29,8 +29,16 @@ impl Loader {
         let obj = self.collect(s, c, "emitter 'area'".into())?;
         let radiance = obj.emission("radiance")?;
         let texture = obj.texture_image("radiance");
-        self.finish(&obj);
+        self.finish_emitter(&obj);
         Ok(Some((radiance, texture)))
+    }
+
+    /// [`Loader::finish`] for an emitter: Mitsuba 3's `sampling_weight`, which every
+    /// emitter takes and which changes how Mitsuba samples the lights, not what it
+    /// renders, is accepted.
+    fn finish_emitter(&mut self, obj: &super::properties::Obj) {
+        obj.get("sampling_weight");
+        self.finish(obj);
     }
 
     /// Adds `light` with its `id` (for tables and messages).
@@ -62,7 +70,7 @@ impl Loader {
                     (None, None) => Vec3::ZERO,
                 };
                 let intensity = obj.emission("intensity")?;
-                self.finish(&obj);
+                self.finish_emitter(&obj);
                 if intensity == Vec3::ZERO {
                     self.warn(s, c, "point light with zero intensity");
                 }
@@ -96,7 +104,7 @@ impl Loader {
                 if obj.get("texture").is_some() {
                     self.warn(s, c, "spot light 'texture' is not supported; ignored");
                 }
-                self.finish(&obj);
+                self.finish_emitter(&obj);
                 if intensity == Vec3::ZERO {
                     self.warn(s, c, "spot light with zero intensity");
                 }
@@ -131,7 +139,7 @@ impl Loader {
                     .try_normalize()
                     .ok_or_else(|| obj.err_param("direction", "is the zero vector"))?;
                 let irradiance = obj.emission("irradiance")?;
-                self.finish(&obj);
+                self.finish_emitter(&obj);
                 if irradiance == Vec3::ZERO {
                     self.warn(s, c, "directional light with zero irradiance");
                 }
@@ -161,8 +169,9 @@ impl Loader {
                     if !(scale.is_finite() && scale >= 0.0) {
                         return Err(obj.err_param("scale", format!("= {scale} must be a nonnegative number")));
                     }
-                    // Mitsuba 0.6's parameters that change nothing here.
-                    for p in ["gamma", "cache", "sampling_weight"] {
+                    // Mitsuba 0.6's parameters that change nothing here, and Mitsuba 3's
+                    // choice of how to sample the map (not what it renders).
+                    for p in ["gamma", "cache", "mis_compensation"] {
                         obj.get(p);
                     }
                     let t = self
@@ -199,7 +208,7 @@ impl Loader {
                 };
                 let rot = rotation(&obj)?;
                 let to_local = rot.inverse();
-                self.finish(&obj);
+                self.finish_emitter(&obj);
                 let id = c.attribute("id").map(str::to_owned);
                 self.add_light(
                     Light::Environment {
@@ -337,7 +346,7 @@ impl Loader {
                  (turn it with 'to_world')",
             );
         }
-        self.finish(&obj);
+        self.finish_emitter(&obj);
         let model = SunSky::new(f64::from(turbidity), albedo.to_array().map(f64::from), sun_local);
         if !model.sun_up() {
             self.warn(

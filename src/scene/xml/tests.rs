@@ -2692,3 +2692,26 @@ fn a_bitmap_radiance_of_an_area_light_is_its_texture() {
         other => panic!("{other:?}"),
     }
 }
+
+/// Parameters of Mitsuba 3's emitters that choose how Mitsuba samples the lights, not
+/// what it renders (`sampling_weight` on any emitter, an envmap's `mis_compensation`),
+/// are accepted without a warning; a misspelt one still warns.
+#[test]
+fn emitter_sampling_parameters_are_accepted() {
+    let l = ok(&[
+        r#"<shape type="rectangle"><emitter type="area"><rgb name="radiance" value="1"/><float name="sampling_weight" value="2"/></emitter></shape>"#,
+        r#"<emitter type="point"><float name="sampling_weight" value="0.5"/></emitter>"#,
+        r#"<emitter type="constant"><float name="sampling_weight" value="1"/><float name="sampling_weigth" value="1"/></emitter>"#,
+    ]);
+    assert_eq!(l.warnings.len(), 1, "{:?}", l.warnings);
+    assert!(has_warning(&l, 5, "'sampling_weigth'"), "{:?}", l.warnings);
+    let dir = tempfile::tempdir().unwrap();
+    exr::prelude::write_rgb_file(dir.path().join("sky.exr"), 8, 5, |_, _| (1.0f32, 1.0f32, 1.0f32)).unwrap();
+    let xml = scene(&[
+        r#"<emitter type="envmap"><string name="filename" value="sky.exr"/><boolean name="mis_compensation" value="true"/></emitter>"#,
+    ]);
+    let path = dir.path().join("scene.xml");
+    fs::write(&path, xml).unwrap();
+    let l = load(&path, &[]).unwrap();
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+}
