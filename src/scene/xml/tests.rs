@@ -2709,6 +2709,7 @@ fn emitter_sampling_parameters_are_accepted() {
     exr::prelude::write_rgb_file(dir.path().join("sky.exr"), 8, 5, |_, _| (1.0f32, 1.0f32, 1.0f32)).unwrap();
     let xml = scene(&[
         r#"<emitter type="envmap"><string name="filename" value="sky.exr"/><boolean name="mis_compensation" value="true"/></emitter>"#,
+        r#"<shape type="rectangle"/>"#,
     ]);
     let path = dir.path().join("scene.xml");
     fs::write(&path, xml).unwrap();
