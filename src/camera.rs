@@ -1,10 +1,11 @@
-//! The cameras of Mitsuba's `perspective` sensor (a pinhole) and `orthographic` one
-//! (parallel rays).
+//! The cameras of Mitsuba's `perspective` sensor (a pinhole), `thinlens` one (a
+//! pinhole's rays leaving a lens disk) and `orthographic` one (parallel rays).
 
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec2, Vec3};
 
 use crate::accel::Ray;
-use crate::scene::{Projection, Sensor};
+use crate::sampling::concentric_disk;
+use crate::scene::{Lens, Projection, Sensor};
 
 /// How large lengths look on the film: pixels per unit length at unit distance
 /// from the eye (a perspective camera) or at any distance (parallel rays).
@@ -62,6 +63,8 @@ pub struct Camera {
     offset: (f32, f32),
     near: f32,
     far: f32,
+    /// A thin lens (depth of field), if the sensor has one.
+    lens: Option<Lens>,
 }
 
 impl Camera {
@@ -108,6 +111,7 @@ impl Camera {
             offset,
             near: s.near_clip,
             far: s.far_clip,
+            lens: if parallel { None } else { s.lens },
         }
     }
 
@@ -138,6 +142,30 @@ impl Camera {
             dir,
             tmin: self.near / inv_len,
             tmax: self.far / inv_len,
+        }
+    }
+
+    /// [`Camera::ray`] through a thin lens, from `u` in [0, 1)^2 (where on the lens:
+    /// Mitsuba's `thinlens`): it leaves the lens disk at the concentric map of `u`
+    /// and passes the point of the pinhole ray at the focus distance (along the view
+    /// axis), so the plane in focus is sharp and the rest blurs. A pinhole camera
+    /// gives [`Camera::ray`].
+    pub fn ray_through_lens(&self, x: f32, y: f32, u: Vec2) -> Ray {
+        let Some(lens) = self.lens else {
+            return self.ray(x, y);
+        };
+        let (x, y) = (x + self.offset.0, y + self.offset.1);
+        let cx = (1.0 - 2.0 * x / self.width) * self.tan_x;
+        let cy = (1.0 - 2.0 * y / self.height) * self.tan_y;
+        let focus = Vec3::new(cx, cy, 1.0) * lens.focus;
+        let on_lens = (concentric_disk(u) * lens.radius).extend(0.0);
+        let local = (focus - on_lens).normalize();
+        // Clip planes are distances along the optical axis.
+        Ray {
+            origin: self.to_world.transform_point3(on_lens),
+            dir: self.to_world.transform_vector3(local).normalize(),
+            tmin: self.near / local.z,
+            tmax: self.far / local.z,
         }
     }
 
@@ -201,6 +229,7 @@ mod tests {
             spp: None,
             filter: None,
             crop: None,
+            lens: None,
         }
     }
 
@@ -309,5 +338,66 @@ mod tests {
         let r = cam.ray(0.0, 50.0);
         // The point at tmin lies on the plane one unit in front of the camera.
         assert!((r.at(r.tmin).z - 4.0).abs() < 1e-5);
+    }
+}
+
+#[cfg(test)]
+mod lens_tests {
+    use super::*;
+    use crate::scene::{FovAxis, Projection};
+
+    /// A `thinlens` camera at (0, 0, 5) looking at the origin, 200 x 100 pixels.
+    fn camera(lens: Option<Lens>) -> Camera {
+        let to_world = Mat4::from_cols(
+            Vec3::NEG_X.extend(0.0),
+            Vec3::Y.extend(0.0),
+            Vec3::NEG_Z.extend(0.0),
+            Vec3::new(0.0, 0.0, 5.0).extend(1.0),
+        );
+        let sensor = Sensor {
+            to_world,
+            projection: Projection::Perspective,
+            fov: 40.0,
+            fov_axis: FovAxis::X,
+            width: 200,
+            height: 100,
+            near_clip: 0.01,
+            far_clip: 100.0,
+            spp: None,
+            filter: None,
+            crop: None,
+            lens,
+        };
+        Camera::new(&sensor, 200, 100)
+    }
+
+    /// Every ray of a pixel through a thin lens leaves the lens disk (radius r round
+    /// the eye, in the plane facing the view) and passes the point that the pinhole's
+    /// ray of that pixel meets at the focus distance along the view axis; without a
+    /// lens the rays are the pinhole's.
+    #[test]
+    fn thin_lens_rays_leave_the_disk_and_meet_in_the_plane_of_focus() {
+        let (r, focus) = (0.2, 3.0);
+        let lensed = camera(Some(Lens { radius: r, focus }));
+        let pinhole = camera(None);
+        for (x, y) in [(100.0, 50.0), (13.5, 87.25), (190.0, 4.0)] {
+            let p = pinhole.ray(x, y);
+            // The pinhole ray's point in the plane z = 5 - focus.
+            let sharp = p.origin + p.dir * (focus / -p.dir.z);
+            let mut spread = 0.0f32;
+            for k in 0..16 {
+                let u = Vec2::new((k % 4) as f32 / 4.0 + 0.1, (k / 4) as f32 / 4.0 + 0.2);
+                let ray = lensed.ray_through_lens(x, y, u);
+                let off = ray.origin - Vec3::new(0.0, 0.0, 5.0);
+                assert!(off.z.abs() < 1e-6 && off.length() <= r + 1e-5, "{off}");
+                spread = spread.max(off.length());
+                let at = ray.origin + ray.dir * (focus / -ray.dir.z);
+                assert!((at - sharp).length() < 1e-4, "{at} vs {sharp}");
+                assert!((ray.dir.length() - 1.0).abs() < 1e-5);
+            }
+            assert!(spread > 0.5 * r, "the lens samples stay near the eye: {spread}");
+            let same = pinhole.ray_through_lens(x, y, Vec2::new(0.3, 0.7));
+            assert_eq!((same.origin, same.dir), (p.origin, p.dir));
+        }
     }
 }

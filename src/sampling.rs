@@ -37,6 +37,8 @@ pub enum Stream {
     /// The points where the mesh reads a textured material's albedo on triangle `t`
     /// (of a shape's stream).
     Texel(u32),
+    /// Where a camera ray leaves a thin lens (`thinlens`), from the sample's seed.
+    Lens,
 }
 
 impl Stream {
@@ -53,6 +55,7 @@ impl Stream {
             Stream::Piece(p) => p.wrapping_mul(0x27d4_eb2f) ^ 0x1656_67b1,
             Stream::Gather => 0x7feb_352d,
             Stream::Texel(t) => t.wrapping_mul(0x6a09_e667) ^ 0xbb67_ae85,
+            Stream::Lens => 0x3c6e_f372 ^ 0xa54f_f53a,
         }
     }
 }
@@ -96,6 +99,21 @@ pub fn uniform3(seed: u32, index: u32) -> [f32; 3] {
     let h = splitmix64((seed as u64) << 32 | index as u64);
     let f = |k: u32| ((h >> (k * 21)) & 0x1F_FFFF) as f32 / (1u32 << 21) as f32;
     [f(0), f(1), f(2)]
+}
+
+/// Shirley and Chiu's concentric map of the unit square onto the unit disk.
+pub fn concentric_disk(u: Vec2) -> Vec2 {
+    let (a, b) = (2.0 * u.x - 1.0, 2.0 * u.y - 1.0);
+    if a == 0.0 && b == 0.0 {
+        return Vec2::ZERO;
+    }
+    let quarter = std::f32::consts::FRAC_PI_4;
+    let (r, phi) = if a.abs() >= b.abs() {
+        (a, quarter * (b / a))
+    } else {
+        (b, 2.0 * quarter - quarter * (a / b))
+    };
+    Vec2::new(r * phi.cos(), r * phi.sin())
 }
 
 /// A cosine-distributed unit direction about the unit normal `n`.

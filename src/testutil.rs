@@ -130,6 +130,7 @@ pub fn looking(origin: glam::Vec3, target: glam::Vec3, fov: f32, w: u32, h: u32)
         spp: None,
         filter: None,
         crop: None,
+        lens: None,
     }
 }
 

@@ -10,6 +10,7 @@ use std::sync::Mutex;
 use glam::{Vec2, Vec3};
 
 use super::fresnel_dielectric;
+use crate::sampling::concentric_disk;
 use crate::scene::{Coating, CoatingCell, Fresnel, Glossy, Microfacet, Rgb, COATING_RES};
 
 /// The nodes (in [-1, 1]) and weights of the Gauss-Legendre rule of order `n`.
@@ -82,21 +83,6 @@ pub fn erfinv(x: f32) -> f32 {
         .fold(-2.002_142_6e-4, |p, c| c + p * w)
     };
     p * x
-}
-
-/// Shirley and Chiu's concentric map of the unit square onto the unit disk.
-fn concentric_disk(u: Vec2) -> Vec2 {
-    let (a, b) = (2.0 * u.x - 1.0, 2.0 * u.y - 1.0);
-    if a == 0.0 && b == 0.0 {
-        return Vec2::ZERO;
-    }
-    let quarter = std::f32::consts::FRAC_PI_4;
-    let (r, phi) = if a.abs() >= b.abs() {
-        (a, quarter * (b / a))
-    } else {
-        (b, 2.0 * quarter - quarter * (a / b))
-    };
-    Vec2::new(r * phi.cos(), r * phi.sin())
 }
 
 impl Microfacet {

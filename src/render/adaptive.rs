@@ -592,7 +592,8 @@ impl LevelCtx<'_> {
                     if !store && refine.sib {
                         q.ray_divisor = 1 << level;
                     }
-                    let ray = camera.ray(t.pos.x, t.pos.y);
+                    let ray =
+                        camera.ray_through_lens(t.pos.x, t.pos.y, uniform2(derive(t.seed, Stream::Lens)));
                     counters.primary_rays += 1;
                     let (cast_before, saved_before) = (counters.shadow_rays, counters.shadow_rays_saved);
                     let value =

@@ -24,7 +24,7 @@ use crate::accel::Accel;
 use crate::camera::Camera;
 use crate::image::Image;
 use crate::progress::Progress;
-use crate::sampling::{derive, pixel_seed, Stream};
+use crate::sampling::{derive, pixel_seed, uniform2, Stream};
 use crate::scene::Scene;
 use crate::selection::Selection;
 use crate::{Error, Result};
@@ -210,9 +210,9 @@ fn render_uniform(tracer: &Tracer, camera: &Camera, settings: &Settings, progres
                     sobol_burley::sample(k, 1, pixel_seed),
                 );
                 let (fx, fy) = (x as f32 + jitter.x, y as f32 + jitter.y);
-                let ray = camera.ray(fx, fy);
-                counters.primary_rays += 1;
                 let path_seed = derive(pixel_seed, Stream::Sample(k));
+                let ray = camera.ray_through_lens(fx, fy, uniform2(derive(path_seed, Stream::Lens)));
+                counters.primary_rays += 1;
                 let value = tracer.radiance(&ray, 0, path_seed, &mut counters);
                 strip.add(&FilmSample { x: fx, y: fy, value }, share, h);
             }

@@ -555,6 +555,19 @@ pub struct Sensor {
     pub filter: Option<Filter>,
     /// Where the image lies on the whole film, if the film is cropped.
     pub crop: Option<Crop>,
+    /// A thin lens (`thinlens`): depth of field; `None` for a pinhole.
+    pub lens: Option<Lens>,
+}
+
+/// Mitsuba's thin lens: rays leave a disk of `radius` round the eye (in the lens
+/// plane, scene units) and meet at the plane `focus` in front of it, where the image
+/// is sharp.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Lens {
+    /// The aperture's radius (`aperture_radius`).
+    pub radius: f32,
+    /// The distance to the plane in focus along the view axis (`focus_distance`).
+    pub focus: f32,
 }
 
 /// A film's crop window (Mitsuba's `crop_offset_x`, `crop_offset_y`, `crop_width`,

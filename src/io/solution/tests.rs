@@ -266,6 +266,7 @@ fn fingerprint_is_stable_and_sees_what_matters() {
         spp: None,
         filter: None,
         crop: None,
+        lens: None,
     });
     assert_eq!(scene_fingerprint(&same), fp);
 

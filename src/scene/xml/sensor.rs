@@ -1,4 +1,4 @@
-//! Sensor plugins (`perspective`; `thinlens` and others as perspective) with their
+//! Sensor plugins (`perspective`, `thinlens`, `orthographic`; others as perspective) with their
 //! film and sampler.
 
 use glam::{Mat3, Mat4};
@@ -7,7 +7,7 @@ use roxmltree::Node;
 use super::document::{tag, Loader, Src};
 use super::parse;
 use super::properties::{Child, Target, Val};
-use crate::scene::{Crop, Filter, FovAxis, Projection, Sensor};
+use crate::scene::{Crop, Filter, FovAxis, Lens, Projection, Sensor};
 use crate::Result;
 
 impl Loader {
@@ -19,15 +19,7 @@ impl Loader {
         let projection = match ty.as_str() {
             "perspective" => Projection::Perspective,
             "orthographic" => Projection::Orthographic,
-            "thinlens" => {
-                obj.get("aperture_radius");
-                self.warn(
-                    s,
-                    c,
-                    "sensor 'thinlens' rendered as 'perspective' (depth of field is ignored)",
-                );
-                Projection::Perspective
-            }
+            "thinlens" => Projection::Perspective,
             t => {
                 obj.mark_all();
                 self.warn(
@@ -125,6 +117,26 @@ impl Loader {
         if near_clip >= far_clip {
             return Err(obj.err_param("near_clip", "must be smaller than far_clip"));
         }
+        // Mitsuba's thin lens: the aperture is required, the focus at the far clip
+        // plane unless given.
+        let lens = if ty == "thinlens" {
+            let Some(radius) = obj.float("aperture_radius")? else {
+                return Err(s.err(c, "sensor 'thinlens' needs an 'aperture_radius'"));
+            };
+            if !(radius.is_finite() && radius >= 0.0) {
+                return Err(obj.err_param(
+                    "aperture_radius",
+                    format!("= {radius} must be a nonnegative number"),
+                ));
+            }
+            let focus = obj.float("focus_distance")?.unwrap_or(far_clip);
+            if !(focus.is_finite() && focus > 0.0) {
+                return Err(obj.err_param("focus_distance", format!("= {focus} must be a positive distance")));
+            }
+            (radius > 0.0).then_some(Lens { radius, focus })
+        } else {
+            None
+        };
         for p in ["focus_distance", "shutter_open", "shutter_close", "srf"] {
             obj.get(p);
         }
@@ -175,6 +187,7 @@ impl Loader {
             spp,
             filter,
             crop,
+            lens,
         });
         Ok(())
     }

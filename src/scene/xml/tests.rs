@@ -2716,3 +2716,56 @@ fn emitter_sampling_parameters_are_accepted() {
     let l = load(&path, &[]).unwrap();
     assert!(l.warnings.is_empty(), "{:?}", l.warnings);
 }
+
+/// Mitsuba's `thinlens`: its `aperture_radius` (required, as Mitsuba requires it) and
+/// `focus_distance` (the far clip plane unless given, as Mitsuba's) make the sensor's
+/// lens, without a warning; a radius of 0 is a pinhole; a bad value is an error naming
+/// the line.
+#[test]
+fn a_thinlens_sensor_reads_its_lens() {
+    use crate::scene::Lens;
+    let lens = |params: &str| {
+        load_raw(
+            &format!(
+                "<scene version=\"3.0.0\">\n<sensor type=\"thinlens\">{params}</sensor>\n<shape type=\"rectangle\"/><emitter type=\"constant\"/>\n</scene>"
+            ),
+            &[],
+        )
+        .map(|l| (l.scene.sensors[0].lens, l.warnings))
+    };
+    let (l, w) =
+        lens(r#"<float name="aperture_radius" value="0.1"/><float name="focus_distance" value="4"/>"#)
+            .unwrap();
+    assert_eq!(
+        l,
+        Some(Lens {
+            radius: 0.1,
+            focus: 4.0
+        })
+    );
+    assert!(w.is_empty(), "{w:?}");
+    let (l, _) =
+        lens(r#"<float name="aperture_radius" value="0.1"/><float name="far_clip" value="50"/>"#).unwrap();
+    assert_eq!(
+        l,
+        Some(Lens {
+            radius: 0.1,
+            focus: 50.0
+        })
+    );
+    assert_eq!(
+        lens(r#"<float name="aperture_radius" value="0"/>"#).unwrap().0,
+        None
+    );
+    for (params, want) in [
+        ("", "'aperture_radius'"),
+        (r#"<float name="aperture_radius" value="-1"/>"#, "aperture_radius"),
+        (
+            r#"<float name="aperture_radius" value="0.1"/><float name="focus_distance" value="0"/>"#,
+            "focus_distance",
+        ),
+    ] {
+        let e = lens(params).unwrap_err().to_string();
+        assert!(e.contains("scene.xml:2:") && e.contains(want), "{params}: {e}");
+    }
+}
