@@ -854,7 +854,14 @@ fn sensor_fov_film_sampler() {
         (Some(crate::scene::Filter::Gaussian), None)
     );
     assert_eq!(s[2].fov, 60.0);
-    assert!(has_warning(&l, 13, "depth of field"));
+    assert_eq!(s[2].lens.map(|l| l.radius), Some(0.1));
+    assert!(
+        !l.warnings
+            .iter()
+            .any(|w| w.contains("thinlens") || w.contains("depth of field")),
+        "{:?}",
+        l.warnings
+    );
     // No warning for the film's own keys or the rfilter.
     assert!(!l
         .warnings
