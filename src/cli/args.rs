@@ -329,7 +329,8 @@ pub struct RefineArgs {
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=4))]
     pub(super) max_level: Option<u32>,
     /// Difference criterion: refine where neighbouring samples' display values
-    /// (sRGB, 0..1, after --exposure) differ by more than this in a channel.
+    /// (sRGB, 0..1, after --exposure) differ by more than this in a channel (through a
+    /// `thinlens` sensor's lens: wherever they differ at all, since blur is noise).
     #[arg(long, default_value_t = 0.05, value_name = "DIFFERENCE")]
     pub(super) contrast: f32,
 }

@@ -168,7 +168,17 @@ pub fn render(
     }
     let mut out = match settings.sampler {
         Sampler::Adaptive => {
-            let out = adaptive::render_adaptive(&tracer, &camera, settings, &settings.refine, progress);
+            // Through a thin lens the blur is noise that the difference criterion
+            // cannot tell from an edge: pixels are refined wherever neighbouring
+            // samples differ at all (to the highest level where the blur is).
+            let refine = match sensor.lens {
+                Some(_) => adaptive::Refine {
+                    contrast: 0.0,
+                    ..settings.refine
+                },
+                None => settings.refine,
+            };
+            let out = adaptive::render_adaptive(&tracer, &camera, settings, &refine, progress);
             let trace_s = start.elapsed().as_secs_f64();
             let start = Instant::now();
             let image = out.set.reconstruct(settings.filter);

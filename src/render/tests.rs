@@ -1165,3 +1165,59 @@ fn a_textured_area_light_shows_its_texture_where_seen() {
         }
     }
 }
+
+/// Through a thin lens the adaptive sampler refines wherever neighbouring samples
+/// differ at all (the blur is noise the difference criterion cannot tell from an
+/// edge): a plane under a lamp, whose light changes too slowly across a pixel for a
+/// pinhole to refine it, takes 4^L samples in every pixel.
+#[test]
+fn a_thin_lens_refines_every_pixel() {
+    use crate::scene::{BsdfKind, Lens, Light};
+    let floor = crate::testutil::square(-50.0, 50.0, -50.0, 50.0, 0.0, false);
+    let mut s = crate::testutil::scene_with(
+        vec![(
+            floor,
+            BsdfKind::Diffuse {
+                reflectance: Vec3::splat(0.5),
+            },
+        )],
+        vec![Light::Point {
+            position: Vec3::new(0.0, 0.0, 5.0),
+            intensity: Vec3::splat(20.0),
+        }],
+        &[],
+    );
+    s.sensors.push(crate::testutil::looking(
+        Vec3::new(0.0, 0.0, 10.0),
+        Vec3::ZERO,
+        30.0,
+        16,
+        16,
+    ));
+    let mut st = settings(Method::Direct);
+    st.sampler = Sampler::Adaptive;
+    st.width = 16;
+    st.height = 16;
+    let refined = |s: &Scene| -> u64 {
+        let out = draw(s, &Bvh::build(s), &st, None);
+        out.levels
+            .iter()
+            .filter(|l| l.level >= 1)
+            .map(|l| l.samples)
+            .sum()
+    };
+    assert_eq!(
+        refined(&s),
+        0,
+        "a pinhole refines nothing on the slowly lit plane"
+    );
+    s.sensors[0].lens = Some(Lens {
+        radius: 0.1,
+        focus: 10.0,
+    });
+    let max_level = st.refine.max_level;
+    // Every pixel holds 4^L samples at the top level, of which the coarser levels hold
+    // 4^(L-1) (and one at levels -1 and 0 between them).
+    let want = 16 * 16 * (4u64.pow(max_level) - 1);
+    assert_eq!(refined(&s), want);
+}
