@@ -119,10 +119,7 @@ impl Camera {
     /// of the image, `(width, height)` = bottom-right). Its direction has unit
     /// length; `tmin`/`tmax` are the near and far clip planes.
     pub fn ray(&self, x: f32, y: f32) -> Ray {
-        let (x, y) = (x + self.offset.0, y + self.offset.1);
-        // Mitsuba's camera space: +z forward, +y up, +x towards the image's left.
-        let cx = (1.0 - 2.0 * x / self.width) * self.tan_x;
-        let cy = (1.0 - 2.0 * y / self.height) * self.tan_y;
+        let Vec2 { x: cx, y: cy } = self.film_point(x, y);
         if self.parallel {
             // From the near plane, along local +z; the clip planes are local
             // distances, scaled with the rest.
@@ -145,6 +142,18 @@ impl Camera {
         }
     }
 
+    /// Where film position `(x, y)` (pixels, as [`Camera::ray`] takes it) lies in
+    /// camera space: on the plane z = 1 (perspective) or the film's own extent
+    /// (orthographic). Mitsuba's camera space: +z forward, +y up, +x towards the
+    /// image's left.
+    fn film_point(&self, x: f32, y: f32) -> Vec2 {
+        let (x, y) = (x + self.offset.0, y + self.offset.1);
+        Vec2::new(
+            (1.0 - 2.0 * x / self.width) * self.tan_x,
+            (1.0 - 2.0 * y / self.height) * self.tan_y,
+        )
+    }
+
     /// [`Camera::ray`] through a thin lens, from `u` in [0, 1)^2 (where on the lens:
     /// Mitsuba's `thinlens`): it leaves the lens disk at the concentric map of `u`
     /// and passes the point of the pinhole ray at the focus distance (along the view
@@ -154,10 +163,7 @@ impl Camera {
         let Some(lens) = self.lens else {
             return self.ray(x, y);
         };
-        let (x, y) = (x + self.offset.0, y + self.offset.1);
-        let cx = (1.0 - 2.0 * x / self.width) * self.tan_x;
-        let cy = (1.0 - 2.0 * y / self.height) * self.tan_y;
-        let focus = Vec3::new(cx, cy, 1.0) * lens.focus;
+        let focus = self.film_point(x, y).extend(1.0) * lens.focus;
         let on_lens = (concentric_disk(u) * lens.radius).extend(0.0);
         let local = (focus - on_lens).normalize();
         // Clip planes are distances along the optical axis.

@@ -152,26 +152,22 @@ pub fn srgb(s: &str) -> Result<Vec3, String> {
     let t = s.trim();
     let encoded = match t.strip_prefix('#') {
         Some(hex) => {
-            let bytes = (hex.len() == 6 && hex.is_ascii())
-                .then(|| {
-                    (0..3)
-                        .map(|i| u8::from_str_radix(&hex[2 * i..2 * i + 2], 16))
-                        .collect::<Result<Vec<u8>, _>>()
-                })
-                .and_then(|r| r.ok())
+            let bits = (hex.len() == 6 && hex.bytes().all(|b| b.is_ascii_hexdigit()))
+                .then(|| u32::from_str_radix(hex, 16).ok())
+                .flatten()
                 .ok_or_else(|| format!("'{t}' is not a colour '#rrggbb' of hex digits"))?;
-            Vec3::new(bytes[0] as f32, bytes[1] as f32, bytes[2] as f32) / 255.0
+            Vec3::new(
+                (bits >> 16) as f32,
+                (bits >> 8 & 0xff) as f32,
+                (bits & 0xff) as f32,
+            ) / 255.0
         }
         None => one_or_three(t)?,
     };
     if !encoded.is_finite() || encoded.min_element() < 0.0 {
         return Err(format!("'{t}' is not a colour of nonnegative numbers"));
     }
-    Ok(Vec3::new(
-        srgb_to_linear(encoded.x),
-        srgb_to_linear(encoded.y),
-        srgb_to_linear(encoded.z),
-    ))
+    Ok(encoded.map(srgb_to_linear))
 }
 
 /// A 4x4 matrix from 16 numbers in row-major order, or a 3x3 linear part from 9.

@@ -14,7 +14,7 @@ use super::properties::{Obj, Prop, Target, TexVal, Val};
 use crate::error::{Error, Pos};
 use crate::scene::spectrum::{self, Quantity};
 use crate::scene::texture::{TexFilter, TexWrap, Texture};
-use crate::scene::{luminance, Rgb};
+use crate::scene::{luminance, mean, Rgb};
 use crate::Result;
 
 impl<'a, 'i> Obj<'a, 'i> {
@@ -66,7 +66,7 @@ impl<'a, 'i> Obj<'a, 'i> {
             Some(p) => match p.val {
                 Val::Float(v) => Ok(Some(v)),
                 Val::Int(i) => Ok(Some(i as f32)),
-                Val::Rgb(c) => Ok(Some(c.element_sum() / 3.0)),
+                Val::Rgb(c) => Ok(Some(mean(c))),
                 Val::Texture(TexVal { mean: Some(c), .. }) => Ok(Some(luminance(c))),
                 Val::Texture(TexVal { mean: None, .. }) => Ok(None),
                 _ => Err(self.mismatch(p, "a float")),
