@@ -281,15 +281,15 @@ impl<'a> Selection<'a> {
     }
 
     /// Per vertex, the stored (occluded) contributions of the sources listed on its
-    /// patch that `which` accepts and that the patch does not ray trace: the part of
-    /// [`Selection::stored`] that they make up.
-    pub fn unpicked_stored(&self, which: impl Fn(SourceId) -> bool) -> Vec<Rgb> {
+    /// patch that `which` accepts there (given the patch and the list entry) and that
+    /// the patch does not ray trace: the part of [`Selection::stored`] that they make up.
+    pub fn unpicked_stored(&self, which: impl Fn(u32, &ListEntry) -> bool) -> Vec<Rgb> {
         let sol = self.solution;
         let mut out = vec![Rgb::ZERO; sol.general.len()];
         for (p, list) in sol.lists.iter().enumerate() {
             let first = sol.mesh.patches[p].first_vertex as usize;
             for e in list {
-                if which(e.source) && !self.picked(p as u32).any(|s| s == e.source) {
+                if which(p as u32, e) && !self.picked(p as u32).any(|s| s == e.source) {
                     for (o, c) in out[first..].iter_mut().zip(&e.occluded) {
                         *o += *c;
                     }

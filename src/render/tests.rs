@@ -1111,6 +1111,38 @@ fn a_plastic_floor_under_a_uniform_sky_shows_its_albedo_towards_the_view() {
     }
 }
 
+/// A floor of albedo 0.5 beside a long black wall 0.2 m high under a uniform sky of
+/// radiance 1: at distance d from the wall the floor sees the sky but for the wall's
+/// form factor `(1 - d / sqrt(d^2 + h^2)) / 2` (an infinitely long strip), so it
+/// shows 0.5 x that share of the sky. The gather's rays read the sky (1.7 % off at d =
+/// 0.1 m); the sky's stored light, which the mesh (0.5 m cells) interpolates, was 31 %
+/// dark there.
+#[test]
+fn the_gather_reads_a_skys_shadow_at_the_foot_of_a_wall() {
+    use crate::testutil::{box_outside, looking, scene, square, uniform_sky, v};
+    let h = 0.2f32;
+    let mut shapes = vec![(square(-5.0, 5.0, -5.0, 5.0, 0.0, false), Vec3::splat(0.5))];
+    for f in box_outside(v(0.0, -5.0, 0.0), v(0.2, 5.0, h)) {
+        shapes.push((f, Vec3::ZERO));
+    }
+    let mut s = scene(shapes, vec![uniform_sky(1.0)], &[]);
+    for d in [0.1f32, 3.0] {
+        s.sensors
+            .push(looking(v(-d, 0.0, 3.0), v(-d, 0.0, 0.0), 2.0, 8, 8));
+    }
+    let bvh = Bvh::build(&s);
+    let sol = solve(&s, &bvh, &solve_settings(0.5, 1), &crate::progress::Silent).unwrap();
+    let sel = select(&s, &sol, Method::Local, &SelectSettings::default(), None).unwrap();
+    for (view, d) in [0.1f32, 3.0].into_iter().enumerate() {
+        let mut st = settings(Method::Local);
+        (st.view, st.width, st.height, st.spp, st.gather) = (view, 8, 8, 16, 128);
+        let img = draw(&s, &bvh, &st, Some(&sel)).image;
+        let centre: f32 = [27, 28, 35, 36].iter().map(|&i| img.pixels[i].x).sum::<f32>() / 4.0;
+        let want = 0.5 * (1.0 - 0.5 * (1.0 - d / (d * d + h * h).sqrt()));
+        assert!((centre - want).abs() < 0.04 * want, "d {d}: {centre} vs {want}");
+    }
+}
+
 /// An area light with a texture of its radiance (a screen) shows each texel where the
 /// camera sees it, as Mitsuba's `area` emitter of a `bitmap` radiance does; the light it
 /// sends is the texture's mean (the light's `radiance`).
