@@ -37,13 +37,16 @@ fn disk_point(c: Vec3, d: Vec3, r: f32, u: Vec2) -> Vec3 {
     c + t * (rho * phi.cos()) + b * (rho * phi.sin())
 }
 
-/// The sun: parallel light of one irradiance.
+/// The sun: parallel light of one irradiance, from one direction or from the
+/// directions of a small disk ([`Scene::sun_solid_angle`]).
 #[derive(Debug, Clone)]
 pub struct Sun {
-    /// Unit direction the light travels in.
+    /// Unit direction the light travels in (the disk's centre).
     pub direction: Vec3,
     /// Irradiance on a surface facing it.
     pub irradiance: Rgb,
+    /// The disk's solid angle (0: a direction alone).
+    solid_angle: f32,
     centre: Vec3,
     radius: f32,
 }
@@ -54,17 +57,25 @@ impl Sun {
         Sun {
             direction,
             irradiance,
+            solid_angle: scene.sun_solid_angle(direction),
             centre,
             radius,
         }
     }
 
-    /// The sun seen from `p`: a point beyond the scene against its light.
-    pub fn sample(&self, p: Vec3) -> LightSample {
+    /// The sun seen from `p`: a point beyond the scene against its light, towards a
+    /// direction of its disk drawn uniformly by `u` (the disk's radiance is uniform,
+    /// so the irradiance over the shading cosine of that direction is unbiased).
+    pub fn sample(&self, p: Vec3, u: Vec2) -> LightSample {
+        let dir = if self.solid_angle > 0.0 {
+            crate::sampling::cone_direction(-self.direction, self.solid_angle, u)
+        } else {
+            -self.direction
+        };
         let dist = far(p, self.centre, self.radius);
         LightSample {
-            point: p - self.direction * dist,
-            dir: -self.direction,
+            point: p + dir * dist,
+            dir,
             dist,
             value: self.irradiance,
             normal: None,

@@ -282,7 +282,7 @@ impl SampledLight {
                 })
             }
             SampledLight::Area(e) => e.sample(p, u),
-            SampledLight::Sun(s) => Some(s.sample(p)),
+            SampledLight::Sun(s) => Some(s.sample(p, u)),
             SampledLight::Sky(s) => s.sample(p, u),
         }
     }

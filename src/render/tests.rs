@@ -892,7 +892,8 @@ fn a_mipmapped_texture_far_off_shows_its_mean_in_every_pixel() {
 /// the image (each pixel's radiance above the sky's times its solid angle), the disk
 /// gives back the sun's irradiance E, as a disk of radiance E / its solid angle must;
 /// a rough metal floor, whose lobe rays leave the sun to its light samples, renders
-/// bit for bit as without the disk (the sun is not counted twice).
+/// as without the disk (the sun is not counted twice), within the noise of the light
+/// samples spread over the disk.
 #[test]
 fn the_suns_disk_is_seen_directly_and_in_a_mirror_and_carries_its_irradiance() {
     use crate::scene::{BsdfKind, Fresnel, Glossy, Light, Microfacet, SunDisk};
@@ -969,7 +970,61 @@ fn the_suns_disk_is_seen_directly_and_in_a_mirror_and_carries_its_irradiance() {
     );
     s.sun_disk = None;
     let without = draw(&s, &Bvh::build(&s), &st, None).image;
-    assert_eq!(with, without);
+    // The disk's light samples spread over its 0.27 degrees: the same light, within
+    // their noise (counted twice, the highlight would double).
+    let (a, b) = (image_mean(&with), image_mean(&without));
+    assert!((a - b).abs() < 0.01 * b, "{a} vs {b}");
+}
+
+/// The sun of a sky (a [`SunDisk`](crate::scene::SunDisk)) shines from its disk, so an
+/// edge's shadow has a penumbra: under a sun overhead of angular radius a, a floor
+/// point at (x, 0, 0) beside the straight edge x = 0 of a plate at height h sees the
+/// part of the disk on its side of the chord at d = -x / (h a), 1 - (acos d - d
+/// sqrt(1 - d^2)) / pi of it. A plain `directional` (no disk) casts a hard shadow.
+#[test]
+fn a_suns_disk_casts_the_penumbra_of_its_size() {
+    use crate::scene::{Light, SunDisk};
+    use crate::testutil::{looking, scene, square, v};
+    let (e, h, solid_angle) = (2.0f32, 1.0f32, 0.01f32);
+    let a = (solid_angle / std::f32::consts::PI).sqrt();
+    let mut s = scene(
+        vec![
+            (square(-5.0, 5.0, -5.0, 5.0, 0.0, false), Vec3::splat(0.5)),
+            (square(0.0, 5.0, -5.0, 5.0, h, false), Vec3::ZERO),
+        ],
+        vec![Light::Directional {
+            direction: -Vec3::Z,
+            irradiance: Vec3::splat(e),
+        }],
+        &[],
+    );
+    let ds = [0.5f32, 0.0, -0.5, 1.5];
+    for d in ds {
+        let x = -d * h * a;
+        s.sensors.push(looking(v(x, 0.0, 0.5), v(x, 0.0, 0.0), 0.5, 8, 8));
+    }
+    let mut st = settings(Method::Direct);
+    st.spp = 256;
+    for disk in [true, false] {
+        s.sun_disk = disk.then_some(SunDisk {
+            light: 0,
+            solid_angle,
+        });
+        let bvh = Bvh::build(&s);
+        for (view, d) in ds.into_iter().enumerate() {
+            st.view = view;
+            let got = image_mean(&draw(&s, &bvh, &st, None).image) / (0.5 * e / std::f32::consts::PI);
+            let want = match (disk, d) {
+                (true, d) if d.abs() < 1.0 => {
+                    1.0 - (d.acos() - d * (1.0 - d * d).sqrt()) / std::f32::consts::PI
+                }
+                // The edge halves the hard shadow's pixels.
+                (false, 0.0) => 0.5,
+                (_, d) => f32::from(u8::from(d > 0.0)),
+            };
+            assert!((got - want).abs() < 0.02, "disk {disk}, d {d}: {got} vs {want}");
+        }
+    }
 }
 
 /// A glossy floor, a square lamp at half a metre facing up (the floor sees only its

@@ -2,7 +2,8 @@
 //! the sky holding a large share of its light is split in two, as `sunsky` is split:
 //! a sky without those texels' excess, and a directional light that carries it, with a
 //! disk that camera, mirror and glass rays see ([`super::SunDisk`]). The selection then
-//! ray traces the sun like any small source, so its shadows are sharp, and leaves the
+//! ray traces the sun like any small source, so its shadows are sharp but for the
+//! disk's penumbrae ([`super::Scene::sun_solid_angle`]), and leaves the
 //! sky's soft light to the radiosity. Kept whole, the map is one source seen under the
 //! whole sphere, and the solid-angle criterion leaves all of it, sun included, to the
 //! radiosity: the sun's shadows came out a mesh cell wide, and contact shadows were lost

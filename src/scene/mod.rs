@@ -645,6 +645,21 @@ impl Scene {
         *irradiance / disk.solid_angle
     }
 
+    /// The solid angle of the disk that the directional light travelling along
+    /// `direction` shines from: its [`SunDisk`]'s if it is the sun of a `sunsky` or of
+    /// a sky photograph, whose shadows then have the disk's penumbrae (as in
+    /// Mitsuba, where such a sun is its texels or its disk); 0 for a plain
+    /// `directional`, a direction alone.
+    pub fn sun_solid_angle(&self, direction: Vec3) -> f32 {
+        match self.sun_disk {
+            Some(disk) => match self.lights.get(disk.light as usize) {
+                Some(Light::Directional { direction: d, .. }) if *d == direction => disk.solid_angle,
+                _ => 0.0,
+            },
+            None => 0.0,
+        }
+    }
+
     /// Whether shadow rays may pass through shape `s`: glass (a thin pane,
     /// `thindielectric`, which light crosses unbent, so its shadow is only a dimming;
     /// thick glass where its faces are parallel, as a window pane's), or a `mask`ed
@@ -707,7 +722,9 @@ pub struct Scene {
 /// The disk of a sun that rays see: a `sunsky`'s sun, whose light is the
 /// [`Light::Directional`] `light`, seen as a disk of uniform radiance (its irradiance
 /// over its solid angle, as Mitsuba's default sun) in the cone of `solid_angle` about
-/// its direction. A plain `directional` has none: no ray sees it, as in Mitsuba.
+/// its direction; its light samples take directions of the disk
+/// ([`Scene::sun_solid_angle`]). A plain `directional` has none: no ray sees it, as
+/// in Mitsuba, and its shadows are hard.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SunDisk {
     /// Index into [`Scene::lights`] of the sun's directional light.
