@@ -552,8 +552,25 @@ impl Solver<'_> {
                 }
             }
         };
+        // The sky's cells (a set is all of them or none).
+        let sky = points.first().is_some_and(|p| p.far.is_some());
         if !(lit && hidden) {
-            record(&|_| true);
+            // A vertex whose first rays found none of the sky records nothing: its
+            // one ray a cell misses an opening narrower than the cell with odds 1 - p,
+            // and its midpoints, which took "hidden" where both coarse vertices had
+            // missed (odds (1 - p)^2) and cast no ray, kept a share of the light
+            // through it well under p. A room lit through a 0.8 x 0.8 m window by the
+            // sky alone came out 10-20 % dark (384 x 256, FLIP against Mitsuba 0.0954 /
+            // 0.0770 -> 0.0650 / 0.0579, render seeds 0 / 1; the mean of what does not
+            // see the sky 0.931 -> 0.982 of Mitsuba's over seeds 0-2; its sky shot's
+            // rays 0.82 -> 1.10 M; test `a_room_lit_through_a_small_window_by_the_sky_
+            // is_as_bright_as_in_mitsuba`);
+            // through a 3 x 1.8 m window 0.0494 / 0.0468 -> 0.0505 / 0.0481; the daylit
+            // room, the glass window, the brushed room, open ground under a sky and a
+            // sunsky room unchanged, at the same time.
+            if lit || !sky {
+                record(&|_| true);
+            }
             return (occ, unocc, rays);
         }
         if reached.len() >= REFINE_RAYS as usize {
@@ -579,8 +596,6 @@ impl Solver<'_> {
                 (hits as f32 / per as f32, now, u64::from(per))
             };
             let least = mean(unocc) * EDGE_SHARE;
-            // The sky's cells (a set is all of them or none).
-            let sky = points.first().is_some_and(|p| p.far.is_some());
             record(&|i| {
                 let (k, _, vis, _) = reached[i];
                 touching
