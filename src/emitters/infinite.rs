@@ -113,6 +113,11 @@ pub struct Sky {
     density: Vec<f32>,
     /// Cells of the table, across and down.
     size: (usize, usize),
+    /// The mean square of its brightness over the square of its mean, over the
+    /// sphere (1 without an image): how far the sky is from uniform. A cosine-weighted
+    /// estimate of its irradiance from n rays in the open has a relative variance of
+    /// about (spread - 1) / n.
+    pub spread: f32,
     centre: Vec3,
     radius: f32,
 }
@@ -133,6 +138,7 @@ impl Sky {
             cols: vec![vec![0.0, 1.0]],
             density: vec![1.0],
             size: (1, 1),
+            spread: 1.0,
             texture: None,
             centre,
             radius,
@@ -162,6 +168,21 @@ impl Sky {
                 }
             }
             let total: f64 = weight.iter().map(|&x| f64::from(x)).sum();
+            // The brightness's mean square over its mean's square, over the sphere
+            // (cells weighed by their solid angle, the sine of their row).
+            let (mut s1, mut s2, mut sines) = (0.0f64, 0.0f64, 0.0f64);
+            for y in 0..h {
+                let sin = f64::from(((y as f32 + 0.5) / h as f32 * std::f32::consts::PI).sin()).max(1e-9);
+                for &x in &weight[y * w..(y + 1) * w] {
+                    let b = f64::from(x) / sin;
+                    s1 += b * sin;
+                    s2 += b * b * sin;
+                    sines += sin;
+                }
+            }
+            if s1 > 0.0 {
+                sky.spread = (s2 * sines / (s1 * s1)) as f32;
+            }
             let floor = (1e-3 * total / (w * h) as f64).max(1e-12) as f32;
             for x in &mut weight {
                 *x += floor;
@@ -334,6 +355,28 @@ mod tests {
         for uv in [Vec2::new(0.1, 0.2), Vec2::new(0.7, 0.9), Vec2::new(0.5, 0.5)] {
             assert!((environment_uv(environment_dir(uv)) - uv).length() < 1e-5, "{uv}");
         }
+    }
+
+    /// A sky's spread (its brightness's mean square over its mean's square): 1 for a
+    /// uniform sky, with or without an image; 2 for a sky bright over its upper half
+    /// and black below (mean 1/2, mean square 1/2).
+    #[test]
+    fn a_skys_spread_is_its_mean_square_over_its_square_mean() {
+        let mut scene = crate::testutil::scene(vec![], vec![], &[]);
+        let (w, h) = (64u32, 32u32);
+        let half: Vec<[f32; 3]> = (0..w * h)
+            .map(|i| [f32::from(u8::from(i / w < h / 2)); 3])
+            .collect();
+        scene
+            .textures
+            .push(Texture::from_linear("half", w, h, half).unwrap());
+        scene
+            .textures
+            .push(Texture::from_linear("even", w, h, vec![[0.7; 3]; (w * h) as usize]).unwrap());
+        let spread = |t: Option<u32>| Sky::new(&scene, Vec3::ONE, t, Mat3::IDENTITY).spread;
+        assert_eq!(spread(None), 1.0);
+        assert!((spread(Some(1)) - 1.0).abs() < 1e-4, "{}", spread(Some(1)));
+        assert!((spread(Some(0)) - 2.0).abs() < 0.05, "{}", spread(Some(0)));
     }
 
     /// A sky image: drawn directions' radiance over their density averages to the
