@@ -560,14 +560,13 @@ impl Solver<'_> {
             // and its midpoints, which took "hidden" where both coarse vertices had
             // missed (odds (1 - p)^2) and cast no ray, kept a share of the light
             // through it well under p. A room lit through a 0.8 x 0.8 m window by the
-            // sky alone came out 10-20 % dark (384 x 256, FLIP against Mitsuba 0.0954 /
-            // 0.0770 -> 0.0650 / 0.0579, render seeds 0 / 1; the mean of what does not
-            // see the sky 0.931 -> 0.982 of Mitsuba's over seeds 0-2; its sky shot's
-            // rays 0.82 -> 1.10 M; test `a_room_lit_through_a_small_window_by_the_sky_
-            // is_as_bright_as_in_mitsuba`);
-            // through a 3 x 1.8 m window 0.0494 / 0.0468 -> 0.0505 / 0.0481; the daylit
-            // room, the glass window, the brushed room, open ground under a sky and a
-            // sunsky room unchanged, at the same time.
+            // sky alone came out 10-20 % dark (384 x 256: FLIP against Mitsuba 0.0954
+            // / 0.0770 -> 0.0650 / 0.0579, render seeds 0 / 1; the mean of what does
+            // not see the sky 0.931 -> 0.982 of Mitsuba's over seeds 0-2; its sky
+            // shot's rays 0.82 -> 1.10 M; the test in `tests/cli.rs` on
+            // `tests/data/sky-window`); through a 3 x 1.8 m window 0.0494 / 0.0468 ->
+            // 0.0505 / 0.0481; the daylit room, the glass window, the brushed room,
+            // open ground under a sky and a sunsky room unchanged, at the same time.
             if lit || !sky {
                 record(&|_| true);
             }

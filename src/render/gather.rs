@@ -16,11 +16,12 @@
 //!   Cornell box that stored light made a dark seam at the tall block's foot and a
 //!   bright wedge on the short block's face (FLIP against Mitsuba 0.0219 -> 0.0206);
 //! - a listed light not ray traced keeps its stored contribution, but for a smooth
-//!   sky (`constant`, `envmap`, see [`SKY_SPREAD`]), which the rays that escape read (through a pane, not by
-//!   way of mirrors or solid glass, as its stored light counts it): its stored light is the mesh's
-//!   interpolation of what each vertex sees of the sky, which blurs every shadow it
-//!   casts (an object resting on open ground, the foot of a wall, a window's
-//!   reveal) over a mesh cell, where the records follow it at their own spacing. The
+//!   sky (`constant`, `envmap`, see [`SKY_SPREAD`]), which the rays that escape read
+//!   (through a pane, not by way of mirrors or solid glass, as its stored light
+//!   counts it): its stored light is the mesh's interpolation of what each vertex
+//!   sees of the sky, which blurs every shadow it casts (an object resting on open
+//!   ground, the foot of a wall, a window's reveal) over a mesh cell, where the
+//!   records follow it at their own spacing. The
 //!   solid-angle criterion never ray traces a sky (it fills the hemisphere), so
 //!   this is its route at every hit that gathers. Measured against Mitsuba
 //!   references, seeds 0 / 1: three boxes on open ground under a uniform sky
