@@ -651,13 +651,12 @@ impl Scene {
     /// Mitsuba, where such a sun is its texels or its disk); 0 for a plain
     /// `directional`, a direction alone.
     pub fn sun_solid_angle(&self, direction: Vec3) -> f32 {
-        match self.sun_disk {
-            Some(disk) => match self.lights.get(disk.light as usize) {
-                Some(Light::Directional { direction: d, .. }) if *d == direction => disk.solid_angle,
-                _ => 0.0,
-            },
-            None => 0.0,
-        }
+        self.sun_disk
+            .filter(|disk| {
+                matches!(self.lights.get(disk.light as usize),
+                    Some(Light::Directional { direction: d, .. }) if *d == direction)
+            })
+            .map_or(0.0, |disk| disk.solid_angle)
     }
 
     /// Whether shadow rays may pass through shape `s`: glass (a thin pane,
