@@ -148,9 +148,14 @@ impl RadiosityMesh {
                 tmin: 0.0,
                 tmax: f32::INFINITY,
             };
-            accel
-                .intersect(&ray)
-                .is_some_and(|hit| shuts(scene, &hit, dir, reach))
+            // Anything within reach shuts it, and the early-exit query over that
+            // short segment settles it cheaply; only a ray clear of it needs the
+            // closest hit, to see whether it meets a surface from behind. (The same
+            // answer as the closest hit alone: a pane the query passes is met there.)
+            accel.occluded(&Ray { tmax: reach, ..ray })
+                || accel
+                    .intersect(&ray)
+                    .is_some_and(|hit| shuts(scene, &hit, dir, reach))
         };
         // Rays `from..` of the strata x strata set that are open, counted up to one
         // past `limit`.
