@@ -76,9 +76,10 @@ impl RadiosityMesh {
         mesh
     }
 
-    /// Finds the covered vertices of every patch (see the module text) and recomputes
-    /// those grids' area shares. Deterministic: fixed directions, no seed, so a
-    /// solution file's mesh is rebuilt the same way.
+    /// Finds the covered vertices of every patch (see the module text), recomputes
+    /// the area shares of the grids that have some, and gives every lattice its
+    /// shares ([`RadiosityMesh::lattice_shares`]). Deterministic: fixed directions,
+    /// no seed, so a solution file's mesh is rebuilt the same way.
     fn cover(&mut self, scene: &Scene, accel: &dyn Accel) {
         // Per vertex: how far its rays must reach (0: an inert surface, which keeps
         // no light: one element, infinite mesh size).
@@ -99,7 +100,8 @@ impl RadiosityMesh {
             .into_par_iter()
             .map(|v| reach[v] > 0.0 && self.enclosed(v, reach[v], scene, accel))
             .collect();
-        // The grids with covered vertices, their shares recomputed in parallel.
+        // The grids with covered vertices, the other grids' shares recomputed in
+        // parallel.
         let shares: Vec<(usize, Vec<f32>)> = self
             .patches
             .par_iter_mut()
@@ -110,16 +112,12 @@ impl RadiosityMesh {
                 if !flags.iter().any(|&c| c) {
                     return None;
                 }
-                Some((
-                    first,
-                    if let Domain::Lattice(l) = &mut grid.domain {
-                        l.covered = flags.to_vec();
-                        l.area_shares()
-                    } else {
-                        grid.covered = flags.to_vec();
-                        grid.area_shares()
-                    },
-                ))
+                if let Domain::Lattice(l) = &mut grid.domain {
+                    l.covered = flags.to_vec();
+                    return None;
+                }
+                grid.covered = flags.to_vec();
+                Some((first, grid.area_shares()))
             })
             .collect();
         for (first, shares) in shares {
@@ -127,6 +125,7 @@ impl RadiosityMesh {
                 v.area = a;
             }
         }
+        self.lattice_shares();
     }
 
     /// Whether the ray nearest the normal and all but [`MAX_OPEN`] of the fixed rays

@@ -323,13 +323,15 @@ impl Lattice {
     }
 }
 
-/// A vertex made by [`build`]: position on the surface, normal, receiving point and
-/// area share.
+/// A vertex made by [`build`]: position on the surface, normal and receiving point
+/// (its area share comes later, from [`Lattice::area_shares`], once the mesh knows
+/// which vertices are covered: see [`RadiosityMesh::lattice_shares`]).
+///
+/// [`RadiosityMesh::lattice_shares`]: super::RadiosityMesh::lattice_shares
 pub struct LatticeVertex {
     pub p: Vec3,
     pub n: Vec3,
     pub q: Vec3,
-    pub area: f32,
 }
 
 /// Meshes the triangles `surface` (one cluster, wound to face its front) by a lattice
@@ -424,7 +426,7 @@ pub fn build(surface: Vec<[Vec3; 3]>, cell: f32) -> (Lattice, Vec<LatticeVertex>
             }
         }
     }
-    let mut verts: Vec<LatticeVertex> = best
+    let verts: Vec<LatticeVertex> = best
         .iter()
         .map(|&(_, p, n, c)| LatticeVertex {
             p,
@@ -433,13 +435,9 @@ pub fn build(surface: Vec<[Vec3; 3]>, cell: f32) -> (Lattice, Vec<LatticeVertex>
             // nearer a corner of two walls than the ray offset, shadow rays would meet
             // the other wall at their start.
             q: p + (c - p) * (0.05 * cell / (c - p).length().max(1e-30)).min(0.5),
-            area: 0.0,
         })
         .collect();
 
-    for (v, a) in verts.iter_mut().zip(lat.area_shares()) {
-        v.area = a;
-    }
     let total = lat
         .surface
         .iter()
