@@ -21,10 +21,9 @@ impl RadiosityMesh {
 
     /// Each lattice vertex's share of its patch's area ([`Lattice::area_shares`],
     /// covered corners left out), times the patch's open share. Done once, on the
-    /// finished mesh: spreading a lattice's triangles over its cells is most of
-    /// meshing it, and [`RadiosityMesh::build_covered`] meshes some shapes twice and
-    /// learns only at the end which vertices are covered (which had each covered
-    /// lattice's shares computed a second time: the conference room's mesh 0.N s faster).
+    /// finished mesh: [`RadiosityMesh::build_covered`] meshes some shapes twice and
+    /// learns only at the end which vertices are covered, which had the shares of
+    /// those shapes and of every covered lattice computed twice.
     pub(super) fn lattice_shares(&mut self) {
         let shares: Vec<(usize, Vec<f32>)> = self
             .patches
