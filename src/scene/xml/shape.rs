@@ -1,6 +1,6 @@
 //! Shape plugins: `obj`, `ply`, `serialized`, `bezier` (radtrace's `.bpt` files), `rectangle`,
-//! `cube`, `disk`, `sphere` and `cylinder`, with their bsdf and area emitter; `shapegroup`
-//! and `instance`.
+//! `cube`, `disk`, `sphere` and `cylinder`, with their bsdf and area emitter; `shapegroup`,
+//! `instance` and `merge`.
 
 use glam::{Mat3, Mat4, Vec3};
 use roxmltree::Node;
@@ -22,6 +22,7 @@ impl Loader {
         match ty.as_str() {
             "shapegroup" => return self.shapegroup(s, c, id),
             "instance" => return self.instance(s, c),
+            "merge" => return self.merge(s, c),
             _ => {}
         }
         self.register(s, c, Target::Other("shape"))?;
@@ -288,6 +289,18 @@ impl Loader {
         }
         let group = self.scene.shapes.drain(first_shape..).collect();
         self.groups.insert(id, group);
+        Ok(())
+    }
+
+    /// `merge`: Mitsuba 3 joins its nested meshes into one per material, for speed;
+    /// the picture is the same, so each nested shape is read as a shape of its own.
+    fn merge(&mut self, s: Src, c: Node) -> Result<()> {
+        for ch in c.children().filter(Node::is_element) {
+            match tag(ch) {
+                "shape" => self.shape(s, ch)?,
+                t => self.warn(s, ch, format!("<{t}> inside shape 'merge' ignored")),
+            }
+        }
         Ok(())
     }
 

@@ -1373,6 +1373,40 @@ fn instances_copy_their_shapegroup_moved_by_their_to_world() {
     assert!(e.contains("not a shapegroup"), "{e}");
 }
 
+/// `merge` (Mitsuba 3's joining of meshes, for speed): its nested shapes load as the
+/// same shapes written at the top level, materials and area emitters with them; other
+/// children are ignored with a warning naming their line.
+#[test]
+fn a_merge_loads_its_shapes_as_written_apart() {
+    let red = r#"<bsdf type="diffuse" id="red"><rgb name="reflectance" value="0.8, 0.1, 0.1"/></bsdf>"#;
+    let a = r#"<shape type="rectangle"><ref id="red"/><transform name="to_world"><translate z="1"/></transform></shape>"#;
+    let b = r#"<shape type="cube"><emitter type="area"><rgb name="radiance" value="2"/></emitter></shape>"#;
+    let merged = format!(r#"<shape type="merge">{a}{b}<bsdf type="conductor"/></shape>"#);
+    let l = ok(&[red, &merged]);
+    let apart = ok(&[red, a, b]);
+    assert_eq!(l.scene.shapes.len(), 2);
+    for (m, s) in l.scene.shapes.iter().zip(&apart.scene.shapes) {
+        assert_eq!(m.mesh.bounds(), s.mesh.bounds());
+        assert_eq!(
+            l.scene.bsdfs[m.bsdf as usize].kind.diffuse_albedo(),
+            apart.scene.bsdfs[s.bsdf as usize].kind.diffuse_albedo()
+        );
+    }
+    assert!(close(
+        l.scene.bsdfs[l.scene.shapes[0].bsdf as usize]
+            .kind
+            .diffuse_albedo(),
+        Vec3::new(0.8, 0.1, 0.1)
+    ));
+    assert_eq!(l.scene.lights.len(), 1);
+    assert!(
+        has_warning(&l, 4, "<bsdf> inside shape 'merge' ignored"),
+        "{:?}",
+        l.warnings
+    );
+    assert!(!apart.warnings.iter().any(|w| w.contains("merge")));
+}
+
 /// `checkerboard`: `color0` where u and v fall in the same half of their unit square,
 /// `color1` elsewhere, after `to_uv`; its mean is pass 1's value.
 #[test]
