@@ -852,7 +852,7 @@ pub(crate) fn select_unchecked<'a>(
     let emitters = sources
         .iter()
         .map(|&s| match s {
-            SourceId::Light(l) => SampledLight::prepare(scene, &scene.lights[l as usize]),
+            SourceId::Light(l) => SampledLight::prepare(scene, l),
             SourceId::Patch(p) => {
                 let tris = mesh.element_triangles(p);
                 let corners = tris

@@ -52,12 +52,13 @@ pub struct Sun {
 }
 
 impl Sun {
-    pub fn new(scene: &Scene, direction: Vec3, irradiance: Rgb) -> Self {
+    /// Directional light `light` of `scene`, travelling along `direction`.
+    pub fn new(scene: &Scene, light: u32, direction: Vec3, irradiance: Rgb) -> Self {
         let (centre, radius) = scene_sphere(scene);
         Sun {
             direction,
             irradiance,
-            solid_angle: scene.sun_solid_angle(direction),
+            solid_angle: scene.sun_solid_angle(light),
             centre,
             radius,
         }

@@ -132,12 +132,14 @@ pub fn spot_falloff(cos_theta: f32, cutoff: f32, cos_cutoff: f32, cos_beam: f32,
 impl SampledLight {
     /// Prepares every light of `scene`, in the scene's order.
     pub fn prepare_all(scene: &Scene) -> Vec<SampledLight> {
-        scene.lights.iter().map(|l| Self::prepare(scene, l)).collect()
+        (0..scene.lights.len() as u32)
+            .map(|l| Self::prepare(scene, l))
+            .collect()
     }
 
-    /// Prepares one light.
-    pub fn prepare(scene: &Scene, light: &Light) -> SampledLight {
-        match *light {
+    /// Prepares light `l` of `scene`.
+    pub fn prepare(scene: &Scene, l: u32) -> SampledLight {
+        match scene.lights[l as usize] {
             Light::Point { position, intensity } => SampledLight::Point { position, intensity },
             Light::Spot {
                 position,
@@ -169,7 +171,7 @@ impl SampledLight {
             Light::Directional {
                 direction,
                 irradiance,
-            } => SampledLight::Sun(Sun::new(scene, direction, irradiance)),
+            } => SampledLight::Sun(Sun::new(scene, l, direction, irradiance)),
             Light::Environment {
                 radiance,
                 texture,
@@ -1147,7 +1149,6 @@ mod tests {
         use crate::sampling::cone_direction;
         use crate::testutil::scene;
         use std::f32::consts::PI;
-        let s = scene(vec![], vec![], &[]);
         let spot = Light::Spot {
             position: Vec3::ONE,
             direction: Vec3::new(0.0, 0.6, 0.8),
@@ -1159,6 +1160,7 @@ mod tests {
             position: Vec3::ZERO,
             intensity: Vec3::splat(3.0),
         };
+        let s = scene(vec![], vec![spot.clone(), point.clone()], &[]);
         let a = Vec3::new(0.0, 0.0, 1.0);
         let square = AreaEmitter::new(
             vec![
@@ -1169,8 +1171,8 @@ mod tests {
             Vec::new(),
         );
         let cases = [
-            (SampledLight::prepare(&s, &spot), light_power(&s, &spot)),
-            (SampledLight::prepare(&s, &point), light_power(&s, &point)),
+            (SampledLight::prepare(&s, 0), light_power(&s, &spot)),
+            (SampledLight::prepare(&s, 1), light_power(&s, &point)),
             (SampledLight::Area(square), f64::from(PI * 1.5)),
         ];
         let n = 256;

@@ -927,7 +927,7 @@ impl Solver<'_> {
         let sampled = match source {
             SourceId::Light(l) => match &self.scene.lights[l as usize] {
                 Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } => {
-                    Some(SampledLight::prepare(self.scene, &self.scene.lights[l as usize]))
+                    Some(SampledLight::prepare(self.scene, l))
                 }
                 Light::Area { .. } | Light::Environment { .. } => None,
             },
@@ -942,10 +942,8 @@ impl Solver<'_> {
         // built for nothing.)
         let sphere = match source {
             SourceId::Light(l) => match &self.scene.lights[l as usize] {
-                light @ Light::Area { shape, .. }
-                    if self.scene.shapes[*shape as usize].mesh.quadric.is_some() =>
-                {
-                    match SampledLight::prepare(self.scene, light) {
+                Light::Area { shape, .. } if self.scene.shapes[*shape as usize].mesh.quadric.is_some() => {
+                    match SampledLight::prepare(self.scene, l) {
                         SampledLight::Area(e) if e.is_sphere() => Some(e),
                         _ => None,
                     }

@@ -729,7 +729,7 @@ mod tests {
         fn new(s: &Scene, mesh_size: f32) -> Self {
             let bvh = Bvh::build(s);
             let sol = solve(s, &bvh, &solve_settings(mesh_size, 4), &crate::progress::Silent).unwrap();
-            let lights = s.lights.iter().map(|l| SampledLight::prepare(s, l)).collect();
+            let lights = SampledLight::prepare_all(s);
             Solved { bvh, sol, lights }
         }
 

@@ -645,17 +645,13 @@ impl Scene {
         *irradiance / disk.solid_angle
     }
 
-    /// The solid angle of the disk that the directional light travelling along
-    /// `direction` shines from: its [`SunDisk`]'s if it is the sun of a `sunsky` or of
-    /// a sky photograph, whose shadows then have the disk's penumbrae (as in
-    /// Mitsuba, where such a sun is its texels or its disk); 0 for a plain
-    /// `directional`, a direction alone.
-    pub fn sun_solid_angle(&self, direction: Vec3) -> f32 {
+    /// The solid angle of the disk that light `light` (a directional one) shines
+    /// from: its [`SunDisk`]'s if it is the sun of a `sunsky` or of a sky photograph,
+    /// whose shadows then have the disk's penumbrae (as in Mitsuba, where such a sun
+    /// is its texels or its disk); 0 for a plain `directional`, a direction alone.
+    pub fn sun_solid_angle(&self, light: u32) -> f32 {
         self.sun_disk
-            .filter(|disk| {
-                matches!(self.lights.get(disk.light as usize),
-                    Some(Light::Directional { direction: d, .. }) if *d == direction)
-            })
+            .filter(|disk| disk.light == light)
             .map_or(0.0, |disk| disk.solid_angle)
     }
 
