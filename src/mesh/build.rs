@@ -15,26 +15,27 @@ impl RadiosityMesh {
     pub fn build(scene: &Scene, mesh_size: f32) -> Self {
         let parts = Self::shape_parts(scene, mesh_size, &std::collections::HashMap::new(), &|_| true);
         let mut mesh = Self::assemble(scene, mesh_size, 0, parts.into_iter().flatten());
-        mesh.lattice_shares();
+        mesh.area_shares(|g| matches!(g.domain, Domain::Lattice(_)));
         mesh
     }
 
-    /// Each lattice vertex's share of its patch's area ([`Lattice::area_shares`],
-    /// covered corners left out), times the patch's open share. Done once, on the
-    /// finished mesh: [`RadiosityMesh::build_covered`] meshes some shapes twice and
-    /// learns only at the end which vertices are covered, which had the shares of
-    /// those shapes and of every covered lattice computed twice.
-    pub(super) fn lattice_shares(&mut self) {
+    /// The vertices' shares of their patch's area ([`Grid::area_shares`], covered
+    /// corners left out), times the patch's open share, for the grids `redo` picks,
+    /// in parallel. Every lattice's are computed here, once, on the finished mesh:
+    /// [`RadiosityMesh::build_covered`] meshes some shapes twice and learns only at
+    /// the end which vertices are covered, which had the shares of those shapes and
+    /// of every covered lattice computed twice. (Other grids get theirs when they
+    /// are built, and again here if they have covered vertices.)
+    pub(super) fn area_shares(&mut self, redo: impl Fn(&Grid) -> bool + Sync) {
         let shares: Vec<(usize, Vec<f32>)> = self
             .patches
             .par_iter()
             .flat_map_iter(|p| {
-                p.grids.iter().filter_map(move |g| match &g.domain {
-                    Domain::Lattice(l) => Some((
+                p.grids.iter().filter(|g| redo(g)).map(move |g| {
+                    (
                         g.first_vertex as usize,
-                        l.area_shares().into_iter().map(|a| a * p.opacity).collect(),
-                    )),
-                    _ => None,
+                        g.area_shares().into_iter().map(|a| a * p.opacity).collect(),
+                    )
                 })
             })
             .collect();
@@ -293,7 +294,7 @@ impl RadiosityMesh {
                     p: v.p,
                     n: v.n,
                     q: v.q,
-                    // Filled by `lattice_shares`.
+                    // Filled by `area_shares`.
                     area: 0.0,
                     patch: patch_index,
                 }));

@@ -78,7 +78,7 @@ impl RadiosityMesh {
 
     /// Finds the covered vertices of every patch (see the module text), recomputes
     /// the area shares of the grids that have some, and gives every lattice its
-    /// shares ([`RadiosityMesh::lattice_shares`]). Deterministic: fixed directions,
+    /// shares ([`RadiosityMesh::area_shares`]). Deterministic: fixed directions,
     /// no seed, so a solution file's mesh is rebuilt the same way.
     fn cover(&mut self, scene: &Scene, accel: &dyn Accel) {
         // Per vertex: how far its rays must reach (0: an inert surface, which keeps
@@ -100,32 +100,24 @@ impl RadiosityMesh {
             .into_par_iter()
             .map(|v| reach[v] > 0.0 && self.enclosed(v, reach[v], scene, accel))
             .collect();
-        // The grids with covered vertices, the other grids' shares recomputed in
-        // parallel.
-        let shares: Vec<(usize, Vec<f32>)> = self
-            .patches
+        // The grids with covered vertices keep their flags.
+        self.patches
             .par_iter_mut()
             .flat_map_iter(|p| p.grids.iter_mut())
-            .filter_map(|grid| {
+            .for_each(|grid| {
                 let first = grid.first_vertex as usize;
                 let flags = &covered[first..first + grid.vertex_count() as usize];
                 if !flags.iter().any(|&c| c) {
-                    return None;
+                    return;
                 }
-                if let Domain::Lattice(l) = &mut grid.domain {
-                    l.covered = flags.to_vec();
-                    return None;
+                match &mut grid.domain {
+                    Domain::Lattice(l) => l.covered = flags.to_vec(),
+                    _ => grid.covered = flags.to_vec(),
                 }
-                grid.covered = flags.to_vec();
-                Some((first, grid.area_shares()))
-            })
-            .collect();
-        for (first, shares) in shares {
-            for (v, a) in self.vertices[first..].iter_mut().zip(shares) {
-                v.area = a;
-            }
-        }
-        self.lattice_shares();
+            });
+        // Every lattice's shares, and those of the other grids that have covered
+        // vertices.
+        self.area_shares(|g| matches!(g.domain, Domain::Lattice(_)) || !g.covered.is_empty());
     }
 
     /// Whether the ray nearest the normal and all but [`MAX_OPEN`] of the fixed rays
@@ -197,8 +189,12 @@ impl Grid {
     /// Each vertex's share of the grid's area under [`Grid::interp`] (covered
     /// vertices left out): the area element at the centres of 4 x 4 pieces of every
     /// element (pieces of the parameter triangle for a triangular grid), spread by
-    /// the weights there, scaled to the grid's area.
-    fn area_shares(&self) -> Vec<f32> {
+    /// the weights there, scaled to the grid's area; a lattice's are
+    /// [`Lattice::area_shares`](super::Lattice::area_shares).
+    pub(super) fn area_shares(&self) -> Vec<f32> {
+        if let Domain::Lattice(l) = &self.domain {
+            return l.area_shares();
+        }
         let mut share = vec![0.0f32; self.vertex_count() as usize];
         let base = self.first_vertex;
         let mut add = |s: f32, t: f32, da: f32| {
@@ -225,7 +221,6 @@ impl Grid {
                     }
                 }
             }
-            Domain::Lattice(_) => {}
             _ => {
                 let (n, m) = (self.n * Q, self.m * Q);
                 let cell = 1.0 / (n * m) as f32;

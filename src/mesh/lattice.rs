@@ -325,9 +325,9 @@ impl Lattice {
 
 /// A vertex made by [`build`]: position on the surface, normal and receiving point
 /// (its area share comes later, from [`Lattice::area_shares`], once the mesh knows
-/// which vertices are covered: see [`RadiosityMesh::lattice_shares`]).
+/// which vertices are covered: see [`RadiosityMesh::area_shares`]).
 ///
-/// [`RadiosityMesh::lattice_shares`]: super::RadiosityMesh::lattice_shares
+/// [`RadiosityMesh::area_shares`]: super::RadiosityMesh::area_shares
 pub struct LatticeVertex {
     pub p: Vec3,
     pub n: Vec3,

@@ -903,6 +903,35 @@ fn a_masked_patch_sends_light_from_the_part_that_is_there() {
     assert!(!cells.is_empty() && cells.iter().all(|c| (c.weight - 0.75).abs() < 1e-6));
 }
 
+/// The same masked quad with a closed box resting on a quarter of it: the vertices
+/// under the box are covered and the shares are recomputed without them, still
+/// times the mask's open share (cover's recompute once dropped it: the areas summed
+/// to the whole quad's).
+#[test]
+fn a_masked_patch_with_covered_vertices_keeps_its_open_share() {
+    use crate::scene::texture::TexFilter;
+    use crate::scene::{TexField, Texture};
+    let leaf = quad([v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.), v(0., 1., 0.)]);
+    let mut shapes = vec![(leaf, Vec3::splat(0.5))];
+    for f in crate::testutil::box_outside(v(0.0, 0.0, 0.0), v(0.5, 0.5, 0.3)) {
+        shapes.push((f, Vec3::splat(0.5)));
+    }
+    let mut s = scene(shapes, vec![], &[]);
+    let mut t = Texture::from_linear("mask", 2, 1, vec![[1.0; 3], [0.0; 3]]).unwrap();
+    t.filter = TexFilter::Nearest;
+    crate::testutil::texture_on(&mut s, 0, TexField::Opacity, t);
+    let m = RadiosityMesh::build_covered(&s, 0.125, &Bvh::build(&s));
+    let p = &m.patches[0];
+    assert!((p.opacity - 0.75).abs() < 1e-6, "{}", p.opacity);
+    let covered = p.grids.iter().any(|g| match &g.domain {
+        Domain::Lattice(l) => l.covered.iter().any(|&c| c),
+        _ => g.covered.iter().any(|&c| c),
+    });
+    assert!(covered, "the box covers some of the quad's vertices");
+    let areas: f32 = m.vertices.iter().filter(|x| x.patch == 0).map(|x| x.area).sum();
+    assert!((areas - 0.75 * p.area).abs() < 1e-4, "{areas} of {}", p.area);
+}
+
 #[test]
 fn a_small_patch_holding_an_object_is_meshed_at_half_the_mesh_size() {
     // A 1.2 x 0.8 table top at a mesh size of 0.2: 6 x 4 elements, 35 vertices.
