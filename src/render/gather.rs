@@ -567,8 +567,11 @@ impl Gather {
                 // The sky's stored light counts it through glass that leaves the
                 // ray's direction as it was (a pane), but not by way of a mirror or a
                 // solid glass object (the photons' caustic part).
+                if skies.is_empty() {
+                    break;
+                }
                 let out = ray.dir.normalize();
-                if !skies.is_empty() && out.dot(dir) > UNBENT {
+                if out.dot(dir) > UNBENT {
                     for &l in skies {
                         if let SampledLight::Sky(sky) = &ctx.lights[l as usize] {
                             e += through * sky.radiance_towards(out) * std::f32::consts::PI;

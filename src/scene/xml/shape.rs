@@ -275,12 +275,7 @@ impl Loader {
         };
         self.register(s, c, Target::Other("shapegroup"))?;
         let (first_shape, first_light) = (self.scene.shapes.len(), self.scene.lights.len());
-        for ch in c.children().filter(Node::is_element) {
-            match tag(ch) {
-                "shape" => self.shape(s, ch)?,
-                t => self.warn(s, ch, format!("<{t}> inside shapegroup '{id}' ignored")),
-            }
-        }
+        self.nested_shapes(s, c, &format!("shapegroup '{id}'"))?;
         if self.scene.lights.len() != first_light {
             return Err(s.err(
                 c,
@@ -295,10 +290,15 @@ impl Loader {
     /// `merge`: Mitsuba 3 joins its nested meshes into one per material, for speed;
     /// the picture is the same, so each nested shape is read as a shape of its own.
     fn merge(&mut self, s: Src, c: Node) -> Result<()> {
+        self.nested_shapes(s, c, "shape 'merge'")
+    }
+
+    /// Reads the `<shape>`s nested in `c` (a `what`), warning of anything else there.
+    fn nested_shapes(&mut self, s: Src, c: Node, what: &str) -> Result<()> {
         for ch in c.children().filter(Node::is_element) {
             match tag(ch) {
                 "shape" => self.shape(s, ch)?,
-                t => self.warn(s, ch, format!("<{t}> inside shape 'merge' ignored")),
+                t => self.warn(s, ch, format!("<{t}> inside {what} ignored")),
             }
         }
         Ok(())
