@@ -276,6 +276,15 @@ impl BsdfKind {
                 eta: *eta,
                 mean: plastic_mean_transmittance(*eta),
             }),
+            BsdfKind::RoughPlastic {
+                lobe, pplastic: true, ..
+            } => {
+                let eta = plastic::coating_eta(lobe);
+                Some(CoatingWeight::Smooth {
+                    eta,
+                    mean: plastic_mean_transmittance(eta),
+                })
+            }
             BsdfKind::RoughPlastic { lobe, coating, .. } => {
                 Some(CoatingWeight::Rough(plastic::coating(lobe, coating)))
             }
@@ -297,6 +306,14 @@ impl BsdfKind {
                 },
                 _,
             ) => plastic_base(*diffuse_reflectance, *eta, *nonlinear) / (eta * eta * std::f32::consts::PI),
+            (
+                BsdfKind::RoughPlastic {
+                    diffuse_reflectance,
+                    pplastic: true,
+                    ..
+                },
+                _,
+            ) => *diffuse_reflectance * std::f32::consts::FRAC_1_PI,
             (
                 BsdfKind::RoughPlastic {
                     diffuse_reflectance,
@@ -414,6 +431,7 @@ mod tests {
             },
             nonlinear: false,
             coating: crate::scene::CoatingCell::default(),
+            pplastic: false,
         }
     }
 

@@ -353,6 +353,7 @@ mod tests {
             },
             nonlinear,
             coating: CoatingCell::default(),
+            pplastic: false,
         }
     }
 
@@ -442,6 +443,99 @@ mod tests {
                 assert!(
                     (diffuse.x - want_diffuse).abs() < 0.01 * want_diffuse,
                     "{beckmann} {alpha} {ior}: diffuse {} vs {want_diffuse}",
+                    diffuse.x
+                );
+            }
+        }
+    }
+
+    /// Mitsuba 3's `pplastic` (scalar_rgb, 3.9): its `eval` (times the light's
+    /// cosine) in three channels, and its diffuse component alone (`BSDFContext.
+    /// component = 1`) in the first, at the direction pairs of [`eval_matches_mitsuba`]
+    /// (view `wi`, light `wo`, as (theta, phi); diffuse reflectance (d, d/2, d/4)). The
+    /// diffuse part is the base over pi times the smooth interface's two transmittances,
+    /// with no internal reflection or `eta^2` as `roughplastic` has them. The third
+    /// material's lobe is anisotropic (alpha_u 0.1 along x, alpha_v 0.4), which
+    /// `roughplastic` refuses.
+    #[test]
+    fn pplastic_eval_matches_mitsuba() {
+        let dirs = [
+            ((0.5, 0.3), (0.6, 0.3 + PI)),
+            ((0.2, 0.0), (1.2, 2.0)),
+            ((1.3, 0.1), (1.25, 0.1 + PI + 0.2)),
+            ((0.0, 0.0), (0.9, 1.0)),
+            ((1.5, 0.0), (0.1, 0.0)),
+        ];
+        type Material = (bool, f32, f32, f32, f32);
+        type Values = [([f32; 3], f32); 5];
+        let table: [(Material, Values); 4] = [
+            (
+                (true, 0.1, 0.1, 1.49, 0.5),
+                [
+                    ([0.408513, 0.348068, 0.317846], 0.120888),
+                    ([0.046893, 0.023446, 0.011723], 0.046893),
+                    ([0.030964, 0.015557, 0.007853], 0.030815),
+                    ([0.089468, 0.044734, 0.022367], 0.089468),
+                    ([0.050328, 0.025164, 0.012582], 0.050328),
+                ],
+            ),
+            (
+                (false, 0.3, 0.3, 1.49, 0.5),
+                [
+                    ([0.159092, 0.098648, 0.068426], 0.120888),
+                    ([0.049029, 0.025583, 0.01386], 0.046893),
+                    ([0.146037, 0.130629, 0.122926], 0.030815),
+                    ([0.093441, 0.048707, 0.02634], 0.089468),
+                    ([0.055722, 0.030558, 0.017976], 0.050328),
+                ],
+            ),
+            (
+                (false, 0.1, 0.4, 1.7, 0.8),
+                [
+                    ([0.286011, 0.195033, 0.149545], 0.181954),
+                    ([0.078143, 0.043185, 0.025706], 0.069916),
+                    ([0.37663, 0.353971, 0.342641], 0.045319),
+                    ([0.136832, 0.069677, 0.0361], 0.13431),
+                    ([0.075763, 0.038164, 0.019364], 0.075199),
+                ],
+            ),
+            (
+                (true, 0.6, 0.6, 1.33, 0.2),
+                [
+                    ([0.055678, 0.030521, 0.017942], 0.050314),
+                    ([0.022839, 0.012877, 0.007896], 0.019923),
+                    ([0.09774, 0.090953, 0.087559], 0.013574),
+                    ([0.041, 0.022301, 0.012952], 0.037396),
+                    ([0.027884, 0.016838, 0.011315], 0.022092),
+                ],
+            ),
+        ];
+        for ((beckmann, alpha_u, alpha_v, ior, d), values) in table {
+            let kind = BsdfKind::RoughPlastic {
+                diffuse_reflectance: Vec3::new(d, 0.5 * d, 0.25 * d),
+                lobe: Glossy {
+                    distribution: Microfacet {
+                        alpha_u,
+                        alpha_v,
+                        beckmann,
+                    },
+                    fresnel: Fresnel::Dielectric { eta: ior / 1.000_277 },
+                    scale: Vec3::ONE,
+                },
+                nonlinear: false,
+                coating: CoatingCell::default(),
+                pplastic: true,
+            };
+            for (&((ti, pi), (to, po)), (want, want_diffuse)) in dirs.iter().zip(values) {
+                let (got, diffuse) = eval(&kind, dir(ti, pi), dir(to, po));
+                let want = Vec3::from(want);
+                assert!(
+                    ((got - want).abs() / want).max_element() < 0.01,
+                    "{beckmann} ({alpha_u}, {alpha_v}) {ior}, wi ({ti}, {pi}), wo ({to}, {po}): {got} vs {want}"
+                );
+                assert!(
+                    (diffuse.x - want_diffuse).abs() < 0.005 * want_diffuse,
+                    "{beckmann} ({alpha_u}, {alpha_v}) {ior}: diffuse {} vs {want_diffuse}",
                     diffuse.x
                 );
             }

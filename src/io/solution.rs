@@ -206,6 +206,20 @@ impl Fingerprint {
             BsdfKind::RoughPlastic {
                 diffuse_reflectance,
                 lobe,
+                pplastic: true,
+                ..
+            } => {
+                self.u8(7);
+                self.vec3(*diffuse_reflectance);
+                self.f32(lobe.distribution.alpha_u);
+                self.f32(lobe.distribution.alpha_v);
+                self.bool(lobe.distribution.beckmann);
+                self.fresnel(&lobe.fresnel);
+                self.vec3(lobe.scale);
+            }
+            BsdfKind::RoughPlastic {
+                diffuse_reflectance,
+                lobe,
                 nonlinear,
                 ..
             } => {

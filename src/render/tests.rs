@@ -780,6 +780,7 @@ fn a_rough_plastic_floor_reflects_a_point_light_by_its_lobe_and_its_base() {
         },
         nonlinear: false,
         coating: Default::default(),
+        pplastic: false,
     };
     let (h, i) = (2.0f32, 10.0f32);
     let s = scene_with(

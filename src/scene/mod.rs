@@ -74,6 +74,11 @@ pub enum BsdfKind {
         nonlinear: bool,
         /// The coating's transmittance by angle, computed from `lobe` on first use.
         coating: CoatingCell,
+        /// Mitsuba 3's `pplastic` (its polarised plastic, as its RGB variants render
+        /// it): the diffuse part is the base's reflectance over pi times the smooth
+        /// interface's two Fresnel transmittances, one per direction, with no light
+        /// reflected back inside and no `eta^2` dilution; the lobe may be anisotropic.
+        pplastic: bool,
     },
     /// A rough conductor (`roughconductor`): a glossy lobe of microfacets.
     RoughConductor {

@@ -81,6 +81,7 @@ impl Loader {
                         },
                         nonlinear,
                         coating: Default::default(),
+                        pplastic: false,
                     },
                     None => BsdfKind::Plastic {
                         diffuse_reflectance,
@@ -88,6 +89,30 @@ impl Loader {
                         eta: int_ior / ext_ior,
                         nonlinear,
                     },
+                };
+                (kind, false)
+            }
+            "pplastic" => {
+                // Mitsuba 3's polarised plastic, as its RGB variants render it.
+                let distribution = self.microfacet(s, &obj)?;
+                let diffuse_reflectance = obj.reflectance("diffuse_reflectance", 0.5)?;
+                let specular_reflectance = obj.reflectance("specular_reflectance", 1.0)?;
+                let int_ior = ior(&obj, "int_ior", 1.49)?;
+                let ext_ior = ior(&obj, "ext_ior", 1.000277)?;
+                slot("diffuse_reflectance", TexField::Diffuse, Vec3::ONE);
+                slot("specular_reflectance", TexField::Specular, Vec3::ONE);
+                let kind = BsdfKind::RoughPlastic {
+                    diffuse_reflectance,
+                    lobe: Glossy {
+                        distribution,
+                        fresnel: Fresnel::Dielectric {
+                            eta: int_ior / ext_ior,
+                        },
+                        scale: specular_reflectance,
+                    },
+                    nonlinear: false,
+                    coating: Default::default(),
+                    pplastic: true,
                 };
                 (kind, false)
             }
@@ -251,6 +276,7 @@ impl Loader {
                     },
                     nonlinear: false,
                     coating: Default::default(),
+                    pplastic: false,
                 };
                 // Mitsuba's principled diffuse is not dimmed by its specular layer:
                 // the plastic's base is raised so that its diffuse albedo is the base
