@@ -120,6 +120,9 @@ pub(super) struct Loader {
     /// ([`Loader::read_images_ahead`]), by path and `raw` flag.
     pub(super) read_ahead:
         HashMap<(PathBuf, bool), std::result::Result<crate::scene::texture::Texture, String>>,
+    /// Mesh files read ahead, in parallel ([`Loader::read_meshes_ahead`]), with the
+    /// number of shapes still to take each.
+    pub(super) meshes_ahead: HashMap<super::shape::MeshKey, (Result<crate::geometry::TriMesh>, u32)>,
     /// Folders that `<path>` elements named, the latest first: searched for files
     /// before the scene's own folders, as Mitsuba's file resolver does.
     search: Vec<PathBuf>,
@@ -127,6 +130,14 @@ pub(super) struct Loader {
 
 pub(super) fn tag<'a>(n: Node<'a, '_>) -> &'a str {
     n.tag_name().name()
+}
+
+/// The `value` of the first child element `<kind name=...>` of `n` with one of
+/// `names`, as written (for reading files ahead of the walk).
+pub(super) fn child_value<'a>(n: Node<'a, '_>, kind: &str, names: &[&str]) -> Option<&'a str> {
+    n.children()
+        .find(|c| tag(*c) == kind && c.attribute("name").is_some_and(|a| names.contains(&a)))
+        .and_then(|c| c.attribute("value"))
 }
 
 /// Reads a text file; a directory or non-UTF-8 content is an input error.
@@ -166,6 +177,7 @@ impl Loader {
             notes: Vec::new(),
             images: HashMap::new(),
             read_ahead: HashMap::new(),
+            meshes_ahead: HashMap::new(),
             search: Vec::new(),
         }
     }
@@ -310,12 +322,14 @@ impl Loader {
             legacy,
         };
         self.read_images_ahead(s);
+        self.read_meshes_ahead(s);
         let r = self.load_root(s, top);
         self.legacy = outer;
         if top {
-            // Images read ahead that the walk did not take (an included file's
+            // Files read ahead that the walk did not take (an included file's
             // walk leaves those of the files around it).
             self.read_ahead.clear();
+            self.meshes_ahead.clear();
         }
         r
     }

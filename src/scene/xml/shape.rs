@@ -2,19 +2,141 @@
 //! `cube`, `disk`, `sphere` and `cylinder`, with their bsdf and area emitter; `shapegroup`,
 //! `instance` and `merge`.
 
+use std::collections::HashMap;
+use std::path::PathBuf;
+
 use glam::{Mat3, Mat4, Vec3};
+use rayon::prelude::*;
 use roxmltree::Node;
 
-use super::document::{tag, Loader, Src};
+use super::document::{child_value, tag, Loader, Src};
+use super::parse;
 use super::properties::{Child, Target};
-use crate::geometry::obj::read_obj;
-use crate::geometry::ply::read_ply;
-use crate::geometry::serialized::read_serialized;
+use crate::error::Error;
+use crate::geometry::obj::parse_obj;
+use crate::geometry::ply::parse_ply;
+use crate::geometry::serialized::parse_serialized;
 use crate::geometry::{bezier, shapes, TriMesh};
 use crate::scene::{Light, Rgb, Shape};
 use crate::Result;
 
+/// The mesh file formats a shape reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub(super) enum MeshFormat {
+    Obj,
+    Ply,
+    Serialized,
+}
+
+/// A mesh as a shape reads it from a file: the file, its format, `face_normals`
+/// and (in a `serialized` file) `shape_index`.
+pub(super) type MeshKey = (PathBuf, MeshFormat, bool, u32);
+
+/// The mesh `key` names, from the file's contents `bytes`.
+fn parse_mesh(key: &MeshKey, bytes: &[u8]) -> Result<TriMesh> {
+    let (path, format, face_normals, index) = key;
+    match format {
+        MeshFormat::Obj => parse_obj(path, bytes, *face_normals),
+        MeshFormat::Ply => parse_ply(path, bytes, *face_normals),
+        MeshFormat::Serialized => parse_serialized(path, bytes, *index, *face_normals),
+    }
+}
+
 impl Loader {
+    /// Reads the mesh files that the `obj`, `ply` and `serialized` shapes of file `s`
+    /// name, all at once and in parallel (each file's bytes once, however many
+    /// shapes it holds), before the walk (which meets them one after another) takes
+    /// them: a file that several shapes name is parsed once. Only names without `$`
+    /// parameters are read ahead, with `face_normals` and `shape_index` as written
+    /// there; the walk reads whatever else it needs, and errors are reported where
+    /// the walk meets them.
+    pub(super) fn read_meshes_ahead(&mut self, s: Src) {
+        let mut uses: HashMap<MeshKey, u32> = HashMap::new();
+        let mut by_file: Vec<(PathBuf, Vec<MeshKey>)> = Vec::new();
+        for n in s
+            .doc
+            .descendants()
+            .filter(|n| n.is_element() && tag(*n) == "shape")
+        {
+            let format = match n.attribute("type") {
+                Some("obj") => MeshFormat::Obj,
+                Some("ply") => MeshFormat::Ply,
+                Some("serialized") => MeshFormat::Serialized,
+                _ => continue,
+            };
+            let Some(name) = child_value(n, "string", &["filename"]).filter(|f| !f.contains('$')) else {
+                continue;
+            };
+            let face_normals = match child_value(n, "boolean", &["face_normals", "faceNormals"]) {
+                None => false,
+                Some(v) => match parse::boolean(v) {
+                    Ok(b) => b,
+                    Err(_) => continue,
+                },
+            };
+            let index = match (format, child_value(n, "integer", &["shape_index", "shapeIndex"])) {
+                (MeshFormat::Serialized, Some(v)) => match v.trim().parse::<u32>() {
+                    Ok(i) => i,
+                    Err(_) => continue,
+                },
+                _ => 0,
+            };
+            let path = self.resolve(s, name);
+            if !path.is_file() {
+                continue;
+            }
+            let key = (path, format, face_normals, index);
+            if let Some((_, left)) = self.meshes_ahead.get_mut(&key) {
+                // Read ahead for a file round this one.
+                *left += 1;
+                continue;
+            }
+            let count = uses.entry(key.clone()).or_insert(0);
+            *count += 1;
+            if *count == 1 {
+                match by_file.iter_mut().find(|(p, _)| *p == key.0) {
+                    Some((_, keys)) => keys.push(key),
+                    None => by_file.push((key.0.clone(), vec![key])),
+                }
+            }
+        }
+        let read: Vec<(MeshKey, Result<TriMesh>)> = by_file
+            .into_par_iter()
+            .flat_map(|(path, keys)| {
+                // Unreadable: the walk reports it.
+                let Ok(bytes) = std::fs::read(&path) else {
+                    return Vec::new();
+                };
+                keys.into_par_iter()
+                    .map(|k| {
+                        let mesh = parse_mesh(&k, &bytes);
+                        (k, mesh)
+                    })
+                    .collect()
+            })
+            .collect();
+        for (key, mesh) in read {
+            let left = uses.get(&key).copied().unwrap_or(1);
+            self.meshes_ahead.insert(key, (mesh, left));
+        }
+    }
+
+    /// The mesh `key` names: read ahead (a copy while other shapes will take it
+    /// too), or read now.
+    fn mesh_file(&mut self, key: MeshKey) -> Result<TriMesh> {
+        if let Some((mesh, left)) = self.meshes_ahead.get_mut(&key) {
+            if let (Ok(mesh), 2..) = (&*mesh, *left) {
+                *left -= 1;
+                return Ok(mesh.clone());
+            }
+            if let Some((mesh, _)) = self.meshes_ahead.remove(&key) {
+                return mesh;
+            }
+        }
+        let bytes = std::fs::read(&key.0).map_err(|e| Error::io(&key.0, e))?;
+        parse_mesh(&key, &bytes)
+    }
+
     pub(super) fn shape(&mut self, s: Src, c: Node) -> Result<()> {
         self.check_attrs(s, c, &["type", "id", "name"]);
         let ty = self.attr_req(s, c, "type")?;
@@ -35,11 +157,12 @@ impl Loader {
                 // As Mitsuba's loaders: v runs up the image in the file, down it in
                 // a texture lookup.
                 let flip = obj.boolean("flip_tex_coords", true)?;
-                let mut mesh = if ty == "obj" {
-                    read_obj(&path, face_normals)?
+                let format = if ty == "obj" {
+                    MeshFormat::Obj
                 } else {
-                    read_ply(&path, face_normals)?
+                    MeshFormat::Ply
                 };
+                let mut mesh = self.mesh_file((path, format, face_normals, 0))?;
                 if flip {
                     for uv in &mut mesh.uvs {
                         uv.y = 1.0 - uv.y;
@@ -54,7 +177,7 @@ impl Loader {
                 let index = u32::try_from(index)
                     .map_err(|_| obj.err_param("shape_index", format!("= {index} must be 0 or more")))?;
                 (
-                    read_serialized(&path, index, face_normals)?,
+                    self.mesh_file((path, MeshFormat::Serialized, face_normals, index))?,
                     format!("serialized:{fname}@{index}"),
                 )
             }

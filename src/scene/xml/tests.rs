@@ -2205,6 +2205,70 @@ fn a_bitmap_texture_gives_the_reflectance_texel_by_texel() {
     assert_eq!(s.shapes[0].mesh.uvs[0], glam::Vec2::new(0.0, 1.0));
 }
 
+/// Mesh files are read ahead of the walk only where the file and `face_normals` are
+/// written out, once per file however many shapes name it; where a `$` parameter
+/// gives either, the walk reads the file itself. Both ways give the same meshes,
+/// and a shape named thrice (its last one moved) gets three whole copies. A broken
+/// file named twice fails with the walk's own error, naming the file and line.
+#[test]
+fn meshes_read_ahead_or_in_the_walk_are_the_same() {
+    let dir = tempfile::tempdir().unwrap();
+    let quad = "v 0 0 0\nv 1 0 0\nv 1 1 0.5\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+                vn 0 0 1\nvn 0 0 1\nvn 0 -0.4 1\nvn 0 -0.4 1\nf 1/1/1 2/2/2 3/3/3\nf 1/1/1 3/3/3 4/4/4\n";
+    fs::write(dir.path().join("m.obj"), quad).unwrap();
+    let obj = |file: &str, face_normals: &str, moved: bool| {
+        format!(
+            r#"<shape type="obj"><string name="filename" value="{file}"/><boolean name="face_normals" value="{face_normals}"/>{}</shape>"#,
+            if moved {
+                r#"<transform name="to_world"><translate x="2"/></transform>"#
+            } else {
+                ""
+            }
+        )
+    };
+    let shapes = [
+        obj("m.obj", "false", false),
+        obj("$f", "false", false),
+        obj("m.obj", "$n", false),
+        obj("m.obj", "true", false),
+        obj("m.obj", "false", true),
+    ];
+    let mut lines = vec![
+        r#"<default name="f" value="m.obj"/>"#,
+        r#"<default name="n" value="true"/>"#,
+        r#"<emitter type="point"/>"#,
+    ];
+    lines.extend(shapes.iter().map(String::as_str));
+    let path = dir.path().join("scene.xml");
+    fs::write(&path, scene(&lines)).unwrap();
+    let s = load(&path, &[]).unwrap().scene;
+    let mesh = |k: usize| &s.shapes[k].mesh;
+    assert_eq!(mesh(0).positions.len(), 4);
+    assert_eq!(mesh(0).normals.len(), 4, "smooth normals from the file");
+    assert_eq!(mesh(0), mesh(1));
+    assert_eq!(mesh(2), mesh(3));
+    assert!(mesh(3).normals.is_empty(), "face_normals: flat");
+    let moved: Vec<Vec3> = mesh(0).positions.iter().map(|p| *p + Vec3::X * 2.0).collect();
+    assert_eq!(mesh(4).positions, moved);
+    assert_eq!(mesh(4).uvs, mesh(0).uvs);
+
+    // A broken file, named twice: the same error as the walk's alone.
+    fs::write(dir.path().join("bad.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n").unwrap();
+    let error = |first: &str| {
+        let shapes = [obj(first, "false", false), obj("bad.obj", "false", false)];
+        let mut lines = vec![r#"<default name="f" value="bad.obj"/>"#];
+        lines.extend(shapes.iter().map(String::as_str));
+        fs::write(&path, scene(&lines)).unwrap();
+        match load(&path, &[]) {
+            Ok(_) => panic!("a broken mesh file fails"),
+            Err(e) => e.to_string(),
+        }
+    };
+    let (ahead, walk) = (error("bad.obj"), error("$f"));
+    assert_eq!(ahead, walk);
+    assert!(ahead.contains("bad.obj") && ahead.contains(":4"), "{ahead}");
+}
+
 /// Images are read ahead of the walk only where the file and `raw` are written out;
 /// where a `$` parameter gives either, the walk reads the image itself. Both ways
 /// give the same texels: the byte 128 sRGB-decoded (0.2158605) unless `raw`

@@ -8,7 +8,7 @@ use glam::{Affine2, Vec3};
 use rayon::prelude::*;
 use roxmltree::Node;
 
-use super::document::{read_text, tag, Loader, Src};
+use super::document::{child_value as child, read_text, tag, Loader, Src};
 use super::parse;
 use super::properties::{Obj, Prop, Target, TexVal, Val};
 use crate::error::{Error, Pos};
@@ -379,11 +379,6 @@ impl Loader {
     /// `raw` and the 0.6 files' `gamma` as written there; the walk reads whatever
     /// else it needs, and errors are reported where the walk meets them.
     pub(super) fn read_images_ahead(&mut self, s: Src) {
-        fn child<'a>(n: Node<'a, '_>, kind: &str, names: &[&str]) -> Option<&'a str> {
-            n.children()
-                .find(|c| tag(*c) == kind && c.attribute("name").is_some_and(|a| names.contains(&a)))
-                .and_then(|c| c.attribute("value"))
-        }
         let mut want: Vec<((PathBuf, bool), bool)> = Vec::new();
         for n in s.doc.descendants().filter(Node::is_element) {
             let raw = match (tag(n), n.attribute("type")) {
