@@ -184,11 +184,32 @@ pub struct Bvh {
     pub(super) panes: Option<Box<Bvh>>,
 }
 
+/// A render whose scene has more than this many triangles per pixel builds its BVH
+/// with obvhs's medium preset instead of the slow one ([`Bvh::build_for`]). The slow
+/// preset's 5-15 % fewer instructions per ray cost about 0.4 us more build per
+/// triangle on 2 threads, which a default render (some 100 rays per pixel, pass 1's
+/// besides) earns back only while triangles are few per pixel. Measured on
+/// 2026-11-28, render seed 0, whole process, twice each (slow / medium): a scene of
+/// my own of 1.58 M triangles at 480 x 320 (10 per pixel) 5.25 / 4.45 s and 5.00 /
+/// 4.54 s (BVH 1.84 -> 1.17 s, render and solve within noise, image md5-identical);
+/// the wooden staircase (1.8 per pixel) 11.77 / 12.14 s and 12.74 / 13.43 s; the
+/// conference room (1.3) 5.93 / 5.90 s and 6.11 / 6.13 s; the classroom (0.66) 5.39
+/// / 5.50 s and 5.04 / 5.14 s.
+pub const QUICK_BUILD_TRIANGLES_PER_PIXEL: u64 = 4;
+
 impl Bvh {
     /// Builds the BVH over every non-degenerate triangle of `scene`; with thin glass
-    /// in the scene, also one of the panes alone ([`Accel::panes`]).
+    /// in the scene, also one of the panes alone ([`Accel::panes`]). obvhs's slow
+    /// preset, for the most rays.
     pub fn build(scene: &Scene) -> Self {
-        let mut bvh = Self::build_of(scene, &|_| true);
+        Self::build_for(scene, None)
+    }
+
+    /// [`Bvh::build`] for a render of `pixels` pixels (`None`: unknown, as many rays
+    /// as may come): with more than [`QUICK_BUILD_TRIANGLES_PER_PIXEL`] triangles per
+    /// pixel, obvhs's medium preset.
+    pub fn build_for(scene: &Scene, pixels: Option<u64>) -> Self {
+        let mut bvh = Self::build_of(scene, &|_| true, pixels);
         if (0..scene.shapes.len()).any(|s| scene.passes_shadows(s as u32)) {
             bvh.opaque = bvh
                 .refs
@@ -200,13 +221,17 @@ impl Bvh {
                         .fold(0u8, |m, (k, _)| m | 1 << k)
                 })
                 .collect();
-            bvh.panes = Some(Box::new(Self::build_of(scene, &|s| scene.passes_shadows(s))));
+            bvh.panes = Some(Box::new(Self::build_of(
+                scene,
+                &|s| scene.passes_shadows(s),
+                pixels,
+            )));
         }
         bvh
     }
 
-    /// The BVH over the shapes `keep` takes.
-    fn build_of(scene: &Scene, keep: &dyn Fn(u32) -> bool) -> Self {
+    /// The BVH over the shapes `keep` takes, for a render of `pixels` pixels.
+    fn build_of(scene: &Scene, keep: &dyn Fn(u32) -> bool, pixels: Option<u64>) -> Self {
         let mut tris = Vec::new();
         let mut refs = Vec::new();
         let mut skipped = 0;
@@ -233,15 +258,32 @@ impl Bvh {
                 });
             }
         }
+        let params = match pixels {
+            Some(px) if tris.len() as u64 > QUICK_BUILD_TRIANGLES_PER_PIXEL.saturating_mul(px) => {
+                BvhBuildParams::medium_build()
+            }
+            _ => BvhBuildParams::slow_build(),
+        };
         Bvh {
             quadrics: Quadrics::build(scene, keep),
-            ..Self::from_triangles(tris, refs, skipped)
+            ..Self::from_triangles_with(tris, refs, skipped, params)
         }
     }
 
     /// The BVH over `tris` (corners as the scene's meshes give them: the blocks keep
-    /// them bit for bit), triangle `i` being `refs[i]`.
+    /// them bit for bit), triangle `i` being `refs[i]`, with the slow preset.
+    #[cfg(test)]
     pub(super) fn from_triangles(tris: Vec<[Vec3; 3]>, refs: Vec<TriRef>, skipped: usize) -> Self {
+        Self::from_triangles_with(tris, refs, skipped, BvhBuildParams::slow_build())
+    }
+
+    /// [`Bvh::from_triangles`] with obvhs's build `params`.
+    pub(super) fn from_triangles_with(
+        tris: Vec<[Vec3; 3]>,
+        refs: Vec<TriRef>,
+        skipped: usize,
+        params: BvhBuildParams,
+    ) -> Self {
         if tris.is_empty() {
             return Bvh {
                 nodes: Vec::new(),
@@ -257,9 +299,10 @@ impl Bvh {
         }
         let mut build_time = Default::default();
         // obvhs's slow preset (wider PLOC search, more reinsertion, large triangles'
-        // boxes pre-split): about 1.5x the medium preset's build time for 5-15% fewer
-        // instructions per ray (callgrind, `radtrace bench`; the pre-splits are 4% of
-        // that on the conference room). A split triangle is listed in several leaves.
+        // boxes pre-split) takes about 1.5x the medium preset's build time for 5-15%
+        // fewer instructions per ray (callgrind, `radtrace bench`; the pre-splits are
+        // 4% of that on the conference room): see [`QUICK_BUILD_TRIANGLES_PER_PIXEL`].
+        // A split triangle is listed in several leaves.
         let corners: Vec<Triangle> = tris
             .iter()
             .map(|&[v0, v1, v2]| Triangle {
@@ -268,7 +311,7 @@ impl Bvh {
                 v2: v2.into(),
             })
             .collect();
-        let bvh = build_cwbvh_from_tris(&corners, BvhBuildParams::slow_build(), &mut build_time);
+        let bvh = build_cwbvh_from_tris(&corners, params, &mut build_time);
         // Reorder the triangles into leaf order so traversal reads them contiguously.
         let tris: Vec<[Vec3; 3]> = bvh.primitive_indices.iter().map(|&i| tris[i as usize]).collect();
         let refs: Vec<TriRef> = bvh.primitive_indices.iter().map(|&i| refs[i as usize]).collect();

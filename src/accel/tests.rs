@@ -211,6 +211,19 @@ fn closest_hits_and_occlusion_match_testing_every_triangle() {
     let rays = random_rays(&mut rng, 4000, 0.0, 10.0);
     let hits = check_against_brute(&bvh, &tris, &rays);
     assert!(hits > 3000, "most rays should hit ({hits})");
+    // The quicker build of scenes with many triangles per pixel (obvhs's medium
+    // preset, see `QUICK_BUILD_TRIANGLES_PER_PIXEL`) answers the same.
+    let refs = (0..tris.len()).map(|t| TriRef {
+        shape: 0,
+        tri: t as u32,
+    });
+    let quick = Bvh::from_triangles_with(
+        tris.clone(),
+        refs.collect(),
+        0,
+        obvhs::BvhBuildParams::medium_build(),
+    );
+    assert_eq!(check_against_brute(&quick, &tris, &rays), hits);
     // The same answers with the larger stacks of deep trees.
     for depth in [40, 1000] {
         let deep = Bvh {

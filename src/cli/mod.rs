@@ -191,17 +191,19 @@ struct Loaded {
     solution: Option<Solution>,
 }
 
-/// Loads the scene, builds the BVH, and loads or computes the solution if `solve`
-/// (its flags, its seed, and whether a final gather will read it).
+/// Loads the scene, builds the BVH (for a render of `pixels(scene)` pixels, if
+/// known: [`Bvh::build_for`]), and loads or computes the solution if `solve` (its
+/// flags, its seed, and whether a final gather will read it).
 fn load_all(
     scene: &SceneArgs,
     solution: Option<&Path>,
     solve: Option<(&SolveArgs, u64, bool)>,
+    pixels: impl Fn(&Scene) -> Option<u64>,
     quiet: bool,
     t: &mut Timings,
 ) -> Result<Loaded> {
     let scene = t.time("load", || load_scene(scene, quiet))?;
-    let bvh = t.time("accel", || Bvh::build(&scene));
+    let bvh = t.time("accel", || Bvh::build_for(&scene, pixels(&scene)));
     if bvh.skipped > 0 && !quiet {
         eprintln!(
             "radtrace: warning: {} degenerate triangle(s) ignored",

@@ -78,7 +78,15 @@ pub(super) fn cmd_render(a: RenderArgs) -> Result<()> {
         let mut t = Timings::default();
         let gathered = a.image.gather(a.solve.quality, a.method) > 0;
         let solve = (a.method != Method::Direct).then_some((&a.solve, a.image.seed, gathered));
-        let l = load_all(&a.scene, a.solution.as_deref(), solve, a.quiet, &mut t)?;
+        let pixels = |scene: &crate::scene::Scene| {
+            let sensor = scene.sensor(a.view).ok()?;
+            let (w, h) = (
+                a.image.width.unwrap_or(sensor.width),
+                a.image.height.unwrap_or(sensor.height),
+            );
+            Some(u64::from(w) * u64::from(h))
+        };
+        let l = load_all(&a.scene, a.solution.as_deref(), solve, pixels, a.quiet, &mut t)?;
         let settings = a.settings(&l.scene, sampler, refine)?;
         let mut display = match &a.display_server {
             Some(addr) => Some(Display::connect(

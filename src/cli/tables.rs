@@ -56,6 +56,8 @@ pub(super) fn cmd_tables(a: TablesArgs) -> Result<()> {
             &a.scene,
             a.solution.as_deref(),
             Some((&a.solve, a.image.seed, gather > 0)),
+            // Several views and renders each: as many rays as may come.
+            |_| None,
             a.quiet,
             &mut t,
         )?;
