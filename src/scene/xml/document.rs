@@ -485,6 +485,19 @@ impl Loader {
                 format!("integrator '{ty}' ignored: radtrace renders with its own method"),
             );
         }
+        // Mitsuba's `direct` (here or nested) renders direct light alone.
+        if let Some(n) = std::iter::once(c)
+            .chain(c.descendants().filter(|n| tag(*n) == "integrator"))
+            .find(|n| n.attribute("type") == Some("direct"))
+        {
+            self.note(
+                s,
+                n,
+                "the 'direct' integrator renders direct light alone; radtrace renders every \
+                 bounce of light, so Mitsuba's image of this file lacks light that radtrace's \
+                 has (`--method direct` renders radtrace's direct light alone)",
+            );
+        }
         // A limit on path length (here or in a nested integrator) that cuts light off:
         // radtrace's solution holds every bounce, so it says so.
         for n in c.descendants().filter(|n| tag(*n) == "integer") {

@@ -2779,8 +2779,9 @@ fn principled_reads_as_a_plastic_a_metal_or_their_blend() {
 /// An integrator's `max_depth` that cuts light off (here 3, or 4 in an integrator
 /// nested in another, or a parameter) is noted with its line, since radtrace renders
 /// every bounce; no limit (-1) or a deep one (65, as Bitterli's scenes give) is not.
+/// Mitsuba's `direct` integrator, which renders direct light alone, is noted too.
 #[test]
-fn a_short_max_depth_of_the_integrator_is_noted() {
+fn a_short_max_depth_or_a_direct_integrator_is_noted() {
     let notes = |integrator: &str| {
         load_raw(
             &format!("<scene version=\"3.0.0\">\n<default name=\"d\" value=\"5\"/>\n{SENSOR}\n{integrator}\n</scene>"),
@@ -2809,6 +2810,23 @@ fn a_short_max_depth_of_the_integrator_is_noted() {
         ));
         assert!(n.is_empty(), "{deep}: {n:?}");
     }
+    // Mitsuba's `direct` integrator (here or nested) renders direct light alone.
+    let direct = |integrator: &str| {
+        load_raw(
+            &format!("<scene version=\"3.0.0\">\n{SENSOR}\n{integrator}\n</scene>"),
+            &[],
+        )
+        .unwrap()
+        .notes
+        .into_iter()
+        .filter(|n| n.contains("'direct'"))
+        .collect::<Vec<_>>()
+    };
+    let n = direct(r#"<integrator type="direct"/>"#);
+    assert!(n.len() == 1 && n[0].contains("direct light alone"), "{n:?}");
+    let n = direct(r#"<integrator type="aov"><integrator type="direct"/></integrator>"#);
+    assert_eq!(n.len(), 1, "{n:?}");
+    assert!(direct(r#"<integrator type="path"/>"#).is_empty());
 }
 
 /// An area light's `bitmap` radiance is kept as its texture (shown where the light is
