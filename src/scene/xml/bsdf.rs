@@ -54,19 +54,23 @@ impl Loader {
                 slot("specular_reflectance", TexField::Specular, Vec3::ONE);
                 (kind, false)
             }
-            "plastic" | "roughplastic" => {
+            "plastic" | "roughplastic" | "pplastic" => {
+                // `pplastic`: Mitsuba 3's polarised plastic, as its RGB variants render
+                // it (a lobe that may be anisotropic; no `nonlinear`).
+                let pplastic = ty == "pplastic";
                 let distribution = match ty.as_str() {
                     "roughplastic" => {
                         self.roughness_maps(s, &obj, &ALPHAS);
                         Some(rough_plastic(&obj)?)
                     }
+                    "pplastic" => Some(self.microfacet(s, &obj)?),
                     _ => None,
                 };
                 let diffuse_reflectance = obj.reflectance("diffuse_reflectance", 0.5)?;
                 let specular_reflectance = obj.reflectance("specular_reflectance", 1.0)?;
                 let int_ior = ior(&obj, "int_ior", 1.49)?;
                 let ext_ior = ior(&obj, "ext_ior", 1.000277)?;
-                let nonlinear = obj.boolean("nonlinear", false)?;
+                let nonlinear = !pplastic && obj.boolean("nonlinear", false)?;
                 slot("diffuse_reflectance", TexField::Diffuse, Vec3::ONE);
                 slot("specular_reflectance", TexField::Specular, Vec3::ONE);
                 let kind = match distribution {
@@ -81,7 +85,7 @@ impl Loader {
                         },
                         nonlinear,
                         coating: Default::default(),
-                        pplastic: false,
+                        pplastic,
                     },
                     None => BsdfKind::Plastic {
                         diffuse_reflectance,
@@ -89,30 +93,6 @@ impl Loader {
                         eta: int_ior / ext_ior,
                         nonlinear,
                     },
-                };
-                (kind, false)
-            }
-            "pplastic" => {
-                // Mitsuba 3's polarised plastic, as its RGB variants render it.
-                let distribution = self.microfacet(s, &obj)?;
-                let diffuse_reflectance = obj.reflectance("diffuse_reflectance", 0.5)?;
-                let specular_reflectance = obj.reflectance("specular_reflectance", 1.0)?;
-                let int_ior = ior(&obj, "int_ior", 1.49)?;
-                let ext_ior = ior(&obj, "ext_ior", 1.000277)?;
-                slot("diffuse_reflectance", TexField::Diffuse, Vec3::ONE);
-                slot("specular_reflectance", TexField::Specular, Vec3::ONE);
-                let kind = BsdfKind::RoughPlastic {
-                    diffuse_reflectance,
-                    lobe: Glossy {
-                        distribution,
-                        fresnel: Fresnel::Dielectric {
-                            eta: int_ior / ext_ior,
-                        },
-                        scale: specular_reflectance,
-                    },
-                    nonlinear: false,
-                    coating: Default::default(),
-                    pplastic: true,
                 };
                 (kind, false)
             }
