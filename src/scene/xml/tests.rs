@@ -2782,7 +2782,8 @@ fn principled_reads_as_a_plastic_a_metal_or_their_blend() {
 /// Mitsuba's `direct` integrator, which renders direct light alone, is noted too.
 #[test]
 fn a_short_max_depth_or_a_direct_integrator_is_noted() {
-    let notes = |integrator: &str| {
+    // The notes that name `about`.
+    let notes_on = |integrator: &str, about: &str| {
         load_raw(
             &format!("<scene version=\"3.0.0\">\n<default name=\"d\" value=\"5\"/>\n{SENSOR}\n{integrator}\n</scene>"),
             &[],
@@ -2790,9 +2791,10 @@ fn a_short_max_depth_or_a_direct_integrator_is_noted() {
         .unwrap()
         .notes
         .into_iter()
-        .filter(|n| n.contains("max_depth"))
+        .filter(|n| n.contains(about))
         .collect::<Vec<_>>()
     };
+    let notes = |integrator: &str| notes_on(integrator, "max_depth");
     let n = notes(r#"<integrator type="path"><integer name="max_depth" value="3"/></integrator>"#);
     assert!(
         n.len() == 1 && n[0].contains("scene.xml:4:") && n[0].contains("max_depth 3"),
@@ -2811,17 +2813,7 @@ fn a_short_max_depth_or_a_direct_integrator_is_noted() {
         assert!(n.is_empty(), "{deep}: {n:?}");
     }
     // Mitsuba's `direct` integrator (here or nested) renders direct light alone.
-    let direct = |integrator: &str| {
-        load_raw(
-            &format!("<scene version=\"3.0.0\">\n{SENSOR}\n{integrator}\n</scene>"),
-            &[],
-        )
-        .unwrap()
-        .notes
-        .into_iter()
-        .filter(|n| n.contains("'direct'"))
-        .collect::<Vec<_>>()
-    };
+    let direct = |integrator: &str| notes_on(integrator, "'direct'");
     let n = direct(r#"<integrator type="direct"/>"#);
     assert!(n.len() == 1 && n[0].contains("direct light alone"), "{n:?}");
     let n = direct(r#"<integrator type="aov"><integrator type="direct"/></integrator>"#);
