@@ -53,6 +53,7 @@ impl Loader {
     pub(super) fn read_meshes_ahead(&mut self, s: Src) {
         let mut uses: HashMap<MeshKey, u32> = HashMap::new();
         let mut by_file: Vec<(PathBuf, Vec<MeshKey>)> = Vec::new();
+        let mut file_at: HashMap<PathBuf, usize> = HashMap::new();
         for n in s
             .doc
             .descendants()
@@ -94,9 +95,12 @@ impl Loader {
             let count = uses.entry(key.clone()).or_insert(0);
             *count += 1;
             if *count == 1 {
-                match by_file.iter_mut().find(|(p, _)| *p == key.0) {
-                    Some((_, keys)) => keys.push(key),
-                    None => by_file.push((key.0.clone(), vec![key])),
+                match file_at.get(&key.0) {
+                    Some(&i) => by_file[i].1.push(key),
+                    None => {
+                        file_at.insert(key.0.clone(), by_file.len());
+                        by_file.push((key.0.clone(), vec![key]));
+                    }
                 }
             }
         }
