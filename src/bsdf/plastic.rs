@@ -357,6 +357,16 @@ mod tests {
         }
     }
 
+    /// The (view, light) direction pairs, as (theta, phi), at which the tests below
+    /// compare `eval` with Mitsuba's.
+    const DIRS: [((f32, f32), (f32, f32)); 5] = [
+        ((0.5, 0.3), (0.6, 0.3 + PI)),
+        ((0.2, 0.0), (1.2, 2.0)),
+        ((1.3, 0.1), (1.25, 0.1 + PI + 0.2)),
+        ((0.0, 0.0), (0.9, 1.0)),
+        ((1.5, 0.0), (0.1, 0.0)),
+    ];
+
     /// Mitsuba's `eval` (the BRDF times the cosine of the light direction) from the
     /// lobe and the diffuse part, view direction `wi`, light direction `wo`.
     fn eval(kind: &BsdfKind, wi: Vec3, wo: Vec3) -> (Rgb, Rgb) {
@@ -377,13 +387,6 @@ mod tests {
         type Material = (bool, f32, f32, bool, f32);
         // Per direction pair: the three channels, and the diffuse part's first.
         type Values = [([f32; 3], f32); 5];
-        let dirs = [
-            ((0.5, 0.3), (0.6, 0.3 + PI)),
-            ((0.2, 0.0), (1.2, 2.0)),
-            ((1.3, 0.1), (1.25, 0.1 + PI + 0.2)),
-            ((0.0, 0.0), (0.9, 1.0)),
-            ((1.5, 0.0), (0.1, 0.0)),
-        ];
         let table: [(Material, Values); 4] = [
             (
                 (true, 0.1, 1.49, false, 0.5),
@@ -428,7 +431,7 @@ mod tests {
         ];
         for ((beckmann, alpha, ior, nonlinear, d), values) in table {
             let kind = rough_plastic(beckmann, alpha, ior, nonlinear, d);
-            let cases: Vec<Case> = dirs
+            let cases: Vec<Case> = DIRS
                 .iter()
                 .zip(values)
                 .map(|(&(a, b), (v, f))| (a, b, v, f))
@@ -451,7 +454,7 @@ mod tests {
 
     /// Mitsuba 3's `pplastic` (scalar_rgb, 3.9): its `eval` (times the light's
     /// cosine) in three channels, and its diffuse component alone (`BSDFContext.
-    /// component = 1`) in the first, at the direction pairs of [`eval_matches_mitsuba`]
+    /// component = 1`) in the first, at the direction pairs [`DIRS`]
     /// (view `wi`, light `wo`, as (theta, phi); diffuse reflectance (d, d/2, d/4)). The
     /// diffuse part is the base over pi times the smooth interface's two transmittances,
     /// with no internal reflection or `eta^2` as `roughplastic` has them. The third
@@ -459,13 +462,6 @@ mod tests {
     /// `roughplastic` refuses.
     #[test]
     fn pplastic_eval_matches_mitsuba() {
-        let dirs = [
-            ((0.5, 0.3), (0.6, 0.3 + PI)),
-            ((0.2, 0.0), (1.2, 2.0)),
-            ((1.3, 0.1), (1.25, 0.1 + PI + 0.2)),
-            ((0.0, 0.0), (0.9, 1.0)),
-            ((1.5, 0.0), (0.1, 0.0)),
-        ];
         type Material = (bool, f32, f32, f32, f32);
         type Values = [([f32; 3], f32); 5];
         let table: [(Material, Values); 4] = [
@@ -526,7 +522,7 @@ mod tests {
                 coating: CoatingCell::default(),
                 pplastic: true,
             };
-            for (&((ti, pi), (to, po)), (want, want_diffuse)) in dirs.iter().zip(values) {
+            for (&((ti, pi), (to, po)), (want, want_diffuse)) in DIRS.iter().zip(values) {
                 let (got, diffuse) = eval(&kind, dir(ti, pi), dir(to, po));
                 let want = Vec3::from(want);
                 assert!(

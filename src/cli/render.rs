@@ -78,13 +78,10 @@ pub(super) fn cmd_render(a: RenderArgs) -> Result<()> {
         let mut t = Timings::default();
         let gathered = a.image.gather(a.solve.quality, a.method) > 0;
         let solve = (a.method != Method::Direct).then_some((&a.solve, a.image.seed, gathered));
+        // The BVH's build follows the image size the render's settings will have.
         let pixels = |scene: &crate::scene::Scene| {
-            let sensor = scene.sensor(a.view).ok()?;
-            let (w, h) = (
-                a.image.width.unwrap_or(sensor.width),
-                a.image.height.unwrap_or(sensor.height),
-            );
-            Some(u64::from(w) * u64::from(h))
+            let s = a.settings(scene, sampler, refine).ok()?;
+            Some(u64::from(s.width) * u64::from(s.height))
         };
         let l = load_all(&a.scene, a.solution.as_deref(), solve, pixels, a.quiet, &mut t)?;
         let settings = a.settings(&l.scene, sampler, refine)?;

@@ -21,13 +21,9 @@ const HAS_COLORS: u32 = 0x0008;
 const FACE_NORMALS: u32 = 0x0010;
 const DOUBLE_PRECISION: u32 = 0x2000;
 
-/// Reads mesh `shape_index` of the `.serialized` file at `path`.
-pub fn read_serialized(path: &Path, shape_index: u32, face_normals: bool) -> Result<TriMesh> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    parse_serialized(path, &bytes, shape_index, face_normals)
-}
-
-/// [`read_serialized`] on the file's contents; `path` only names the file in errors.
+/// Mesh `shape_index` of a `.serialized` file, from its contents `bytes`; `path` only
+/// names the file in errors. (The scene loader reads each file's bytes once for all
+/// the shapes it holds.)
 pub fn parse_serialized(path: &Path, bytes: &[u8], shape_index: u32, face_normals: bool) -> Result<TriMesh> {
     let bad = |msg: String| Error::input(path, None, msg);
     let u16_at = |at: usize| bytes.get(at..at + 2).map(|b| u16::from_le_bytes([b[0], b[1]]));

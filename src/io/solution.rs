@@ -206,27 +206,18 @@ impl Fingerprint {
             BsdfKind::RoughPlastic {
                 diffuse_reflectance,
                 lobe,
-                pplastic: true,
-                ..
-            } => {
-                self.u8(7);
-                self.vec3(*diffuse_reflectance);
-                self.f32(lobe.distribution.alpha_u);
-                self.f32(lobe.distribution.alpha_v);
-                self.bool(lobe.distribution.beckmann);
-                self.fresnel(&lobe.fresnel);
-                self.vec3(lobe.scale);
-            }
-            BsdfKind::RoughPlastic {
-                diffuse_reflectance,
-                lobe,
                 nonlinear,
+                pplastic,
                 ..
             } => {
-                // The coating is made from the lobe.
-                self.u8(5);
+                // The coating is made from the lobe. A `pplastic` (its own tag) may be
+                // anisotropic; the rough plastics' fingerprints are as before it came.
+                self.u8(if *pplastic { 7 } else { 5 });
                 self.vec3(*diffuse_reflectance);
                 self.f32(lobe.distribution.alpha_u);
+                if *pplastic {
+                    self.f32(lobe.distribution.alpha_v);
+                }
                 self.bool(lobe.distribution.beckmann);
                 if let Fresnel::Dielectric { eta } = lobe.fresnel {
                     self.f32(eta);
