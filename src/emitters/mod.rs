@@ -627,9 +627,37 @@ fn parallelogram(tris: &[[Vec3; 3]]) -> Option<[Vec3; 3]> {
 /// sample at a glossy hit seen through a mirror or a lobe (or every shadow ray with
 /// `--area-samples 1`) took an area light's corner every time.
 pub fn group_point(g: u32, r: u32, n: u32, seed: u32) -> (u32, u32, Vec2) {
+    group_point_in(g, r, n, seed, Stratum::WHOLE)
+}
+
+/// Which of a pixel's samples takes a light point, so that the samples together
+/// spread their points over each group: sample `index` of `count` takes its point
+/// from stretch `index` of `count` of the group's run of the curve (shifted by a
+/// per-group amount, so that a sample's points do not all sit at the same place
+/// in theirs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Stratum {
+    pub index: u32,
+    pub count: u32,
+}
+
+impl Stratum {
+    /// One sample alone: the whole group.
+    pub const WHOLE: Stratum = Stratum { index: 0, count: 1 };
+}
+
+/// [`group_point`] for sample `stratum` of several that share the group's light
+/// points: the point lies in the `stratum`'s stretch of the group's run of the curve.
+pub fn group_point_in(g: u32, r: u32, n: u32, seed: u32, stratum: Stratum) -> (u32, u32, Vec2) {
     let n = n.max(1);
     let (a, b) = group_bounds(g, r, n);
-    (a, b, sub_source_uv(a, b, n, crate::sampling::uniform3(seed, g)))
+    let mut xi = crate::sampling::uniform3(seed, g);
+    if stratum.count > 1 {
+        let shift = (g.wrapping_mul(0x9e37_79b9) >> 16) % stratum.count;
+        let k = (stratum.index % stratum.count + shift) % stratum.count;
+        xi[0] = ((k as f32 + xi[0]) / stratum.count as f32).min(1.0 - f32::EPSILON);
+    }
+    (a, b, sub_source_uv(a, b, n, xi))
 }
 
 /// Sub-sources `[g n / r, (g+1) n / r)` of `n`: group `g` of `r`. Groups are runs of
@@ -888,6 +916,45 @@ mod tests {
             }
             assert_eq!(next, 64);
         }
+    }
+
+    #[test]
+    fn samples_in_strata_take_each_stretch_of_a_group_once() {
+        // 64 sub-sources in 4 groups of 16 (a 4 x 4 block of an 8 x 8 grid each);
+        // `count` samples of one pixel, one point per group each, in strata: in every
+        // group the i-th point along the curve lies in the i-th stretch of `count`
+        // (sub-sources 16 i / count ..< 16 (i + 1) / count), whatever the seeds; with
+        // 16 samples, one point in each of its cells.
+        let cell = |uv: Vec2| ((uv.x * 8.0) as u32, (uv.y * 8.0) as u32);
+        let sub_source: std::collections::BTreeMap<_, _> = (0..64)
+            .map(|k| (cell(sub_source_uv(k, k + 1, 64, [0.5; 3])), k))
+            .collect();
+        for count in [16, 12, 5] {
+            for g in 0..4 {
+                let mut found: Vec<u32> = (0..count)
+                    .map(|index| {
+                        let seed = crate::sampling::derive(index * 7919 + 13, crate::sampling::Stream::Path);
+                        let (a, b, uv) = group_point_in(g, 4, 64, seed, Stratum { index, count });
+                        assert_eq!((a, b), (16 * g, 16 * g + 16));
+                        sub_source[&cell(uv)] - a
+                    })
+                    .collect();
+                found.sort();
+                for (i, j) in found.into_iter().enumerate() {
+                    let (lo, hi) = (16 * i as u32 / count, (16 * (i as u32 + 1)).div_ceil(count));
+                    assert!(
+                        (lo..hi).contains(&j),
+                        "count {count}, group {g}: point {i} in {j}"
+                    );
+                }
+            }
+        }
+        // Without strata, 16 points of 16 cells meet twice in a cell somewhere.
+        let clash = (0..4).any(|g| {
+            let mut cells = std::collections::BTreeSet::new();
+            (0..16).any(|i| !cells.insert(cell(group_point(g, 4, 64, i * 7919 + 13).2)))
+        });
+        assert!(clash);
     }
 
     #[test]

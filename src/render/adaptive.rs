@@ -10,15 +10,20 @@
 //!   every cell of `2^-L` pixels that has no sample yet gets one, so a pixel holds
 //!   `4^L` samples. These are anti-aliasing samples: they read the SIB of the level 0
 //!   samples of the four nearest pixels but store nothing. With the SIB on they cast
-//!   `1 / 2^L` of the shadow rays per hit to an area source (at least one), so a
-//!   pixel refined to level L takes `2^L` times a level-0 sample's shadow rays, not
-//!   `4^L` times (with it off, the fully sampled picture, every sample casts all).
-//!   Wooden staircase (one large area light, 62 % of its samples at level 2): render
-//!   17.1 -> 12.4 s, FLIP against Mitsuba 0.0621 -> 0.0619; `1 / 4^L`: 11 % faster still,
-//!   0.0619, but the Cornell box 0.0204 -> 0.0207 (no change at `1 / 2^L`). Again on
-//!   2026-11-27: the staircase's shadow rays 12.4 M -> 9.8 M for FLIP 0.0640 -> 0.0639,
-//!   but a penumbra's pixels 28 % RMS from the closed form instead of 13.7 %
-//!   (`anti_aliasing_samples_share_the_shadow_rays_of_a_penumbra_without_losing_it`).
+//!   `1 / 4^L` of the shadow rays per hit to an area source (at least four), so a
+//!   pixel's new samples at a level take about a level-0 sample's shadow rays between
+//!   them, not `4^L` times (with the SIB off, the fully sampled picture, every sample
+//!   casts all). They share them in strata ([`crate::emitters::Stratum`]): each takes
+//!   its own stretch of every group of light points, so that together they cover the
+//!   source as one sample's rays do. Wooden staircase (one large area light, 62 % of
+//!   its samples at level 2): at `1 / 2^L` (no strata), render 17.1 -> 12.4 s, FLIP
+//!   against Mitsuba 0.0621 -> 0.0619. `1 / 4^L` without strata lost the penumbrae
+//!   (28 % RMS from the closed form in
+//!   `anti_aliasing_samples_share_the_shadow_rays_of_a_penumbra_without_losing_it`,
+//!   13.7 % at `1 / 2^L`, 16 groups); in strata and at least four, 13.8 % (64 groups:
+//!   7.9 %, 7.3 % at `1 / 2^L`). 2026-11-28: the staircase's shadow rays 11.0 M ->
+//!   8.3 M, render 9.1-9.7 -> 8.0-8.5 s, FLIP (seeds 0 / 1) 0.0538 / 0.0545 ->
+//!   0.0540 / 0.0546; the conference room's 5.0 M -> 3.8 M, render 2.84 -> 2.66 s.
 //!
 //! Refinement criteria (Sect. 6): *object* (samples hit different objects), *shadow*
 //! (a real point light is lit at one sample and shadowed at the other, read from the
@@ -43,6 +48,7 @@ use super::film::film_rows;
 use super::sib::{self, Entry, Neighbour, SibQuery, NO_OBJECT};
 use super::{FilmSample, Settings, Tracer};
 use crate::camera::Camera;
+use crate::emitters::Stratum;
 use crate::image::{srgb_encode, Image};
 use crate::progress::Progress;
 use crate::sampling::{cell_seed, derive, uniform2, Stream};
@@ -200,6 +206,8 @@ struct Task {
     seed: u32,
     /// Stored samples whose SIB it reads.
     neighbours: [u32; 4],
+    /// Which of its pixel's new samples at an anti-aliasing level it is.
+    stratum: Stratum,
 }
 
 /// Parameters of the adaptive sampler beyond the render settings.
@@ -313,6 +321,7 @@ pub fn render_adaptive(
                 pos: in_cell(Vec2::new(2.0 * bx as f32, 2.0 * by as f32), ext, jitter(seed)),
                 seed,
                 neighbours: [NONE; 4],
+                stratum: Stratum::WHOLE,
             }
         })
         .collect();
@@ -333,6 +342,7 @@ pub fn render_adaptive(
                 pos: in_cell(Vec2::new(x as f32, y as f32), Vec2::ONE, jitter(seed)),
                 seed,
                 neighbours: four_from(bx, by, bw, bh, |bx, by| block_first + by * bw + bx),
+                stratum: Stratum::WHOLE,
             }
         })
         .collect();
@@ -380,22 +390,28 @@ pub fn render_adaptive(
                     taken[(cy * cells + cx) as usize] = true;
                 }
                 let set = &set;
-                (0..cells * cells)
-                    .filter(move |&c| !taken[c as usize])
-                    .map(move |c| {
-                        let (cx, cy) = (x * cells + c % cells, y * cells + c / cells);
-                        let seed = seed_of(level, cx, cy);
-                        let pos = in_cell(
-                            Vec2::new(cx as f32, cy as f32) * size,
-                            Vec2::splat(size),
-                            jitter(seed),
-                        );
-                        Task {
-                            pos,
-                            seed,
-                            neighbours: nearest_stored(set, pos),
-                        }
-                    })
+                // The new cells, in the order of their stretches of the light.
+                let mut new: Vec<u32> = (0..cells * cells).filter(|&c| !taken[c as usize]).collect();
+                new.sort_by_key(|&c| cell_stratum(level as u32, c % cells, c / cells));
+                let count = new.len() as u32;
+                new.into_iter().enumerate().map(move |(rank, c)| {
+                    let (cx, cy) = (x * cells + c % cells, y * cells + c / cells);
+                    let seed = seed_of(level, cx, cy);
+                    let pos = in_cell(
+                        Vec2::new(cx as f32, cy as f32) * size,
+                        Vec2::splat(size),
+                        jitter(seed),
+                    );
+                    Task {
+                        pos,
+                        seed,
+                        neighbours: nearest_stored(set, pos),
+                        stratum: Stratum {
+                            index: rank as u32,
+                            count,
+                        },
+                    }
+                })
             })
             .collect();
         ctx.run_level(&mut set, &mut levels, level, &tasks, Store::No);
@@ -452,6 +468,21 @@ fn four_from(x0: i64, y0: i64, w: u32, h: u32, at: impl Fn(u32, u32) -> u32) -> 
         }
     }
     nb
+}
+
+/// Which stretch of each group of light points the sample in cell `(x, y)` of its
+/// pixel's `2^L x 2^L` takes at anti-aliasing level `level` (see [`Stratum`]). At
+/// level 2 the light's quarters (the index's top bits) are laid out as a Latin
+/// square of the cells: every row, column and quarter of the pixel meets all four,
+/// and the quarter of the pixel picks the stretch within them. Row by row elsewhere.
+fn cell_stratum(level: u32, x: u32, y: u32) -> u32 {
+    match level {
+        2 => {
+            let quarter = (x & 1 ^ y >> 1) | (y & 1 ^ x >> 1) << 1;
+            quarter << 2 | x >> 1 | (y >> 1) << 1
+        }
+        _ => (y << level) + x,
+    }
 }
 
 /// Samples both white on the display differ when one has this many times the other's
@@ -590,7 +621,10 @@ impl LevelCtx<'_> {
                     }
                     let mut q = SibQuery::new(refine.sib, &ns[..k], &mut record);
                     if !store && refine.sib {
-                        q.ray_divisor = 1 << level;
+                        // Each of the pixel's 4^L cells' sample casts 1 / 4^L of
+                        // the rays, its stretch of each group of light points.
+                        q.ray_divisor = 1 << (2 * level);
+                        q.stratum = t.stratum;
                     }
                     let ray =
                         camera.ray_through_lens(t.pos.x, t.pos.y, uniform2(derive(t.seed, Stream::Lens)));

@@ -10,7 +10,7 @@ use super::Settings;
 use crate::accel::{Accel, Hit, Ray};
 use crate::bsdf::microfacet::Frame;
 use crate::camera::PixelScale;
-use crate::emitters::{group_point, SampledLight};
+use crate::emitters::{group_point, group_point_in, SampledLight, Stratum};
 use crate::interaction::{pane_transmittance, reflect, transmittance, SurfacePoint};
 use crate::mesh::{Interp, RadiosityMesh};
 use crate::radiosity::Parted;
@@ -645,10 +645,13 @@ impl<'a> Tracer<'a> {
         let li = pick.source as usize;
         let light = &self.sources[li];
         let divisor = sib.as_ref().map_or(1, |q| q.ray_divisor.max(1));
+        let stratum = sib.as_ref().map_or(Stratum::WHOLE, |q| q.stratum);
         let (n, r) = if light.is_area() {
             (
                 self.area_samples,
-                (pick.rays / divisor).clamp(1, self.area_samples),
+                (pick.rays / divisor)
+                    .max(pick.rays.min(MIN_SHARED_GROUPS))
+                    .clamp(1, self.area_samples),
             )
         } else {
             (1, 1)
@@ -684,7 +687,7 @@ impl<'a> Tracer<'a> {
         let (mut acc, mut unoccluded) = (Vec3::ZERO, Vec3::ZERO);
         let (mut cast, mut saved) = (0, 0);
         for g in 0..r {
-            let (a, b, uv) = group_point(g, r, n, light_seed);
+            let (a, b, uv) = group_point_in(g, r, n, light_seed, stratum);
             let Some(s) = light.sample(sp.p, uv) else { continue };
             if !sp.faces(s.dir) {
                 continue;
@@ -750,6 +753,12 @@ impl<'a> Tracer<'a> {
         }
     }
 }
+
+/// An anti-aliasing sample casts at least this many of the selection's shadow rays
+/// to an area source (or all, if fewer), whatever the level's divisor: with its
+/// pixel's other samples it spreads them over the source, but below four a
+/// penumbra's pixels go noisy (see [`super::adaptive`]).
+const MIN_SHARED_GROUPS: u32 = 4;
 
 /// Light points whose panes stand for the rest where the shadow image buffer finds
 /// an area light wholly visible ([`Tracer::pane_share`]).

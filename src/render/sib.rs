@@ -20,6 +20,8 @@
 //! shadows are not coherent, so every ray is cast there (the paper: "object boundaries
 //! where we do not use the SIB").
 
+use crate::emitters::Stratum;
+
 /// "No object": a sample whose primary ray hit nothing.
 pub const NO_OBJECT: u32 = u32::MAX;
 
@@ -136,9 +138,12 @@ pub struct SibQuery<'a> {
     /// Set by the shading: the object the primary ray hit ([`NO_OBJECT`] if none).
     pub object: u32,
     /// The selection's shadow rays per hit to an area source are divided by this (at
-    /// least one is cast): 1 at the stored levels and with the SIB off, `2^L` at
-    /// anti-aliasing level L (see [`super::adaptive`]).
+    /// least four are cast, or all if fewer): 1 at the stored levels and with the SIB
+    /// off, `4^L` at anti-aliasing level L (see [`super::adaptive`]).
     pub ray_divisor: u32,
+    /// Which of its pixel's samples at its level this one is: the level's samples
+    /// together spread their light points over each group.
+    pub stratum: Stratum,
 }
 
 impl<'a> SibQuery<'a> {
@@ -151,6 +156,7 @@ impl<'a> SibQuery<'a> {
             record,
             object: NO_OBJECT,
             ray_divisor: 1,
+            stratum: Stratum::WHOLE,
         }
     }
 
