@@ -252,7 +252,8 @@ impl<'a> Tracer<'a> {
                                 area_samples: self.area_samples,
                                 parted: self.parted.as_ref(),
                             };
-                            let e = g.irradiance(&ctx, &sp, patch, seed, counters);
+                            let stratum = sib.as_ref().map_or(Stratum::WHOLE, |q| q.stratum);
+                            let e = g.irradiance(&ctx, &sp, patch, seed, stratum, counters);
                             let mut sum = (g.kept(&interp) * textured * seen
                                 + kind.diffuse_albedo_at(cos_v) * e)
                                 * std::f32::consts::FRAC_1_PI;
