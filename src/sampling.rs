@@ -258,6 +258,51 @@ fn splitmix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// Which of a pixel's samples at an anti-aliasing level this one is, so that the
+/// samples share a set of draws: sample `index` of `count` takes its own piece of
+/// each stratum (a stretch of a light's group of points, a piece of a gather's cell,
+/// of a lobe's square), so that together they cover it as one sample's draws do.
+/// The pieces are shifted by the stratum's number, so that one sample's draws do
+/// not all sit at the same place in theirs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Stratum {
+    pub index: u32,
+    pub count: u32,
+}
+
+impl Stratum {
+    /// One sample alone: the whole of every stratum.
+    pub const WHOLE: Stratum = Stratum { index: 0, count: 1 };
+
+    /// This sample's piece among `count` for stratum number `k`.
+    fn piece_of(self, k: u32) -> u32 {
+        let shift = (k.wrapping_mul(0x9e37_79b9) >> 16) % self.count;
+        (self.index % self.count + shift) % self.count
+    }
+
+    /// `x` in 0..1 moved into this sample's stretch of `count` equal stretches of
+    /// 0..1, for stratum number `k`.
+    pub fn stretch(self, x: f32, k: u32) -> f32 {
+        if self.count <= 1 {
+            return x;
+        }
+        ((self.piece_of(k) as f32 + x) / self.count as f32).min(1.0 - f32::EPSILON)
+    }
+
+    /// `xi` in the unit square moved into this sample's piece of a grid of at least
+    /// `count` pieces (`ceil(sqrt(count))` columns), for stratum number `k`.
+    pub fn piece(self, xi: Vec2, k: u32) -> Vec2 {
+        if self.count <= 1 {
+            return xi;
+        }
+        let cols = (self.count as f32).sqrt().ceil() as u32;
+        let rows = self.count.div_ceil(cols);
+        let s = self.piece_of(k);
+        let at = (Vec2::new((s % cols) as f32, (s / cols) as f32) + xi) / Vec2::new(cols as f32, rows as f32);
+        at.min(Vec2::splat(1.0 - f32::EPSILON))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

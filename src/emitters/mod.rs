@@ -17,7 +17,7 @@ use glam::{Vec2, Vec3};
 pub use infinite::{Sky, Sun};
 
 use crate::geometry::{point_polygon_form_factor, Quadric};
-use crate::sampling::{cone_direction, sphere_cone};
+use crate::sampling::{cone_direction, sphere_cone, Stratum};
 use crate::scene::{mean, Light, Rgb, Scene};
 
 /// A point on a light source as seen from a receiver.
@@ -630,33 +630,13 @@ pub fn group_point(g: u32, r: u32, n: u32, seed: u32) -> (u32, u32, Vec2) {
     group_point_in(g, r, n, seed, Stratum::WHOLE)
 }
 
-/// Which of a pixel's samples takes a light point, so that the samples together
-/// spread their points over each group: sample `index` of `count` takes its point
-/// from stretch `index` of `count` of the group's run of the curve (shifted by a
-/// per-group amount, so that a sample's points do not all sit at the same place
-/// in theirs).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Stratum {
-    pub index: u32,
-    pub count: u32,
-}
-
-impl Stratum {
-    /// One sample alone: the whole group.
-    pub const WHOLE: Stratum = Stratum { index: 0, count: 1 };
-}
-
 /// [`group_point`] for sample `stratum` of several that share the group's light
 /// points: the point lies in the `stratum`'s stretch of the group's run of the curve.
 pub fn group_point_in(g: u32, r: u32, n: u32, seed: u32, stratum: Stratum) -> (u32, u32, Vec2) {
     let n = n.max(1);
     let (a, b) = group_bounds(g, r, n);
     let mut xi = crate::sampling::uniform3(seed, g);
-    if stratum.count > 1 {
-        let shift = (g.wrapping_mul(0x9e37_79b9) >> 16) % stratum.count;
-        let k = (stratum.index % stratum.count + shift) % stratum.count;
-        xi[0] = ((k as f32 + xi[0]) / stratum.count as f32).min(1.0 - f32::EPSILON);
-    }
+    xi[0] = stratum.stretch(xi[0], g);
     (a, b, sub_source_uv(a, b, n, xi))
 }
 

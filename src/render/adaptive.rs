@@ -13,7 +13,7 @@
 //!   `1 / 4^L` of the shadow rays per hit to an area source (at least four), so a
 //!   pixel's new samples at a level take about a level-0 sample's shadow rays between
 //!   them, not `4^L` times (with the SIB off, the fully sampled picture, every sample
-//!   casts all). They share them in strata ([`crate::emitters::Stratum`]): each takes
+//!   casts all). They share them in strata ([`crate::sampling::Stratum`]): each takes
 //!   its own stretch of every group of light points, so that together they cover the
 //!   source as one sample's rays do. Wooden staircase (one large area light, 62 % of
 //!   its samples at level 2): at `1 / 2^L` (no strata), render 17.1 -> 12.4 s, FLIP
@@ -48,10 +48,9 @@ use super::film::film_rows;
 use super::sib::{self, Entry, Neighbour, SibQuery, NO_OBJECT};
 use super::{FilmSample, Settings, Tracer};
 use crate::camera::Camera;
-use crate::emitters::Stratum;
 use crate::image::{srgb_encode, Image};
 use crate::progress::Progress;
-use crate::sampling::{cell_seed, derive, uniform2, Stream};
+use crate::sampling::{cell_seed, derive, uniform2, Stratum, Stream};
 use crate::scene::Rgb;
 use crate::{Error, Result};
 

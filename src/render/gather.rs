@@ -67,11 +67,11 @@ use super::counters::Counters;
 use crate::accel::Accel;
 use crate::bsdf::microfacet::Frame;
 use crate::camera::Camera;
-use crate::emitters::{group_point, SampledLight, Stratum};
+use crate::emitters::{group_point, SampledLight};
 use crate::interaction::{reflect, transmittance, SurfacePoint};
 use crate::radiosity::SourceId;
 use crate::radiosity::{Parted, Solution};
-use crate::sampling::{derive, pixel_seed, uniform2, uniform3, Stream};
+use crate::sampling::{derive, pixel_seed, uniform2, uniform3, Stratum, Stream};
 use crate::scene::{Rgb, Scene};
 use crate::selection::Selection;
 
@@ -546,17 +546,8 @@ impl Gather {
             for kk in 0..k_n {
                 let k = j * k_n + kk;
                 let mut xi = Vec2::new(sobol_burley::sample(k, 0, seed), sobol_burley::sample(k, 1, seed));
-                if stratum.count > 1 {
-                    // This sample's piece of the cell (a grid of at least as many
-                    // pieces as its pixel's samples), the pieces shifted per cell.
-                    let cols = (stratum.count as f32).sqrt().ceil() as u32;
-                    let rows = stratum.count.div_ceil(cols);
-                    let shift = (k.wrapping_mul(0x9e37_79b9) >> 16) % stratum.count;
-                    let s = (stratum.index + shift) % stratum.count;
-                    xi = (Vec2::new((s % cols) as f32, (s / cols) as f32) + xi)
-                        / Vec2::new(cols as f32, rows as f32);
-                    xi = xi.min(Vec2::splat(1.0 - f32::EPSILON));
-                }
+                // This sample's piece of the cell, among its pixel's samples'.
+                xi = stratum.piece(xi, k);
                 let u = Vec2::new((j as f32 + xi.x) / m as f32, (kk as f32 + xi.y) / k_n as f32);
                 let dir = crate::sampling::cosine_direction(sp.ns, u);
                 if dir.dot(sp.ng) <= 0.0 {

@@ -10,11 +10,11 @@ use super::Settings;
 use crate::accel::{Accel, Hit, Ray};
 use crate::bsdf::microfacet::Frame;
 use crate::camera::PixelScale;
-use crate::emitters::{group_point, group_point_in, SampledLight, Stratum};
+use crate::emitters::{group_point, group_point_in, SampledLight};
 use crate::interaction::{pane_transmittance, reflect, transmittance, SurfacePoint};
 use crate::mesh::{Interp, RadiosityMesh};
 use crate::radiosity::Parted;
-use crate::sampling::{derive, stratum, uniform2, Stream};
+use crate::sampling::{derive, stratum, uniform2, Stratum, Stream};
 use crate::scene::{Bsdf, BsdfKind, Glossy, Rgb, Scene};
 use crate::selection::{Pick, Selection};
 

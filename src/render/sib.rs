@@ -20,7 +20,7 @@
 //! shadows are not coherent, so every ray is cast there (the paper: "object boundaries
 //! where we do not use the SIB").
 
-use crate::emitters::Stratum;
+use crate::sampling::Stratum;
 
 /// "No object": a sample whose primary ray hit nothing.
 pub const NO_OBJECT: u32 = u32::MAX;
