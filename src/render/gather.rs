@@ -480,12 +480,8 @@ impl Gather {
             counters.gather_reused += 1;
             return sum / weight;
         }
-        let share = if stratum.count > 1 {
-            ANEW_SHARE * AA_SHARE
-        } else {
-            ANEW_SHARE
-        };
-        let rays = (self.rays / share).max(1);
+        let aa = if stratum.count > 1 { AA_SHARE } else { 1 };
+        let rays = (self.rays / (ANEW_SHARE * aa)).max(1);
         self.gather(
             ctx,
             sp,

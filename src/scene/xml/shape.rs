@@ -51,9 +51,9 @@ impl Loader {
     /// there; the walk reads whatever else it needs, and errors are reported where
     /// the walk meets them.
     pub(super) fn read_meshes_ahead(&mut self, s: Src) {
+        // How many shapes take each mesh, and each file's meshes.
         let mut uses: HashMap<MeshKey, u32> = HashMap::new();
-        let mut by_file: Vec<(PathBuf, Vec<MeshKey>)> = Vec::new();
-        let mut file_at: HashMap<PathBuf, usize> = HashMap::new();
+        let mut by_file: HashMap<PathBuf, Vec<MeshKey>> = HashMap::new();
         for n in s
             .doc
             .descendants()
@@ -95,13 +95,7 @@ impl Loader {
             let count = uses.entry(key.clone()).or_insert(0);
             *count += 1;
             if *count == 1 {
-                match file_at.get(&key.0) {
-                    Some(&i) => by_file[i].1.push(key),
-                    None => {
-                        file_at.insert(key.0.clone(), by_file.len());
-                        by_file.push((key.0.clone(), vec![key]));
-                    }
-                }
+                by_file.entry(key.0.clone()).or_default().push(key);
             }
         }
         let read: Vec<(MeshKey, Result<TriMesh>)> = by_file
