@@ -289,6 +289,7 @@ mod tests {
             gather_rays: 7,
             gather_records: 8,
             gather_reused: 9,
+            retextured: 6,
             sources: vec![src(1, 2)],
         };
         a += Counters {
@@ -300,6 +301,7 @@ mod tests {
             gather_rays: 70,
             gather_records: 80,
             gather_reused: 90,
+            retextured: 60,
             sources: vec![src(10, 20), src(5, 6)],
         };
         assert_eq!(
@@ -313,6 +315,7 @@ mod tests {
                 gather_rays: 77,
                 gather_records: 88,
                 gather_reused: 99,
+                retextured: 66,
                 sources: vec![src(11, 22), src(5, 6)],
             }
         );

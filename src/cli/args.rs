@@ -336,12 +336,19 @@ pub struct RefineArgs {
 }
 
 impl RefineArgs {
-    pub(super) fn refine(&self, sib: bool, exposure: f32, quality: Quality) -> Result<Refine> {
+    pub(super) fn refine(
+        &self,
+        sib: bool,
+        retexture: bool,
+        exposure: f32,
+        quality: Quality,
+    ) -> Result<Refine> {
         let refine = Refine {
             max_level: self.max_level.unwrap_or(quality.max_level()),
             contrast: self.contrast,
             exposure,
             sib,
+            retexture,
         };
         refine.validate()?;
         Ok(refine)
@@ -401,6 +408,12 @@ pub struct RenderArgs {
     /// sampled picture) [default: on for local and global, off otherwise].
     #[arg(long, value_enum)]
     pub(super) sib: Option<OnOff>,
+    /// Retextured anti-aliasing samples: `on`, where a pixel is refined only because
+    /// a texture varies across it (its samples' light agrees once their texels are
+    /// set alike), its new samples take the light of its nearest sample and look up
+    /// only their own texel; `off` traces every sample in full.
+    #[arg(long, value_enum, default_value = "on")]
+    pub(super) retexture: OnOff,
     /// Write pictures of the method to this folder: the shadow image of each
     /// ray-traced source (sib-NN-NAME.png), samples per pixel (density.png) and shadow
     /// rays per pixel (rays.png). Adaptive sampler only.

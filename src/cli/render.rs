@@ -71,7 +71,9 @@ pub(super) fn cmd_render(a: RenderArgs) -> Result<()> {
         Some(v) => v == OnOff::On,
         None => matches!(a.method, Method::Local | Method::Global),
     };
-    let refine = a.refine.refine(sib, a.exposure, a.solve.quality)?;
+    let refine = a
+        .refine
+        .refine(sib, a.retexture == OnOff::On, a.exposure, a.solve.quality)?;
     let select_settings = a.select.settings(a.image.area_samples)?;
     let baseline = a.baseline.as_deref().map(read_baseline).transpose()?;
     with_threads(a.image.threads, |threads| {

@@ -46,7 +46,7 @@ impl Observer for Cli {
 pub(super) fn cmd_tables(a: TablesArgs) -> Result<()> {
     let total = Instant::now();
     let select = a.select.settings(a.image.area_samples)?;
-    let refine = a.refine.refine(false, 0.0, a.solve.quality)?;
+    let refine = a.refine.refine(false, false, 0.0, a.solve.quality)?;
     // The paper's tables are of its method before the last step: a gather only when
     // asked for (and the solve shoots patches for it).
     let gather = a.image.gather.unwrap_or(0);

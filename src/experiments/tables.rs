@@ -128,6 +128,8 @@ impl TablesPlan {
                 contrast: self.contrast,
                 exposure: 0.0,
                 sib: run.sib,
+                // The paper's method: every anti-aliasing sample traced in full.
+                retexture: false,
             },
         })
     }

@@ -27,6 +27,9 @@ pub struct Counters {
     pub gather_records: u64,
     /// Hits that took their gather from the records (the others gathered anew).
     pub gather_reused: u64,
+    /// Anti-aliasing samples that took a nearby sample's light and looked up only
+    /// their own texel (no shadow, gather or glossy ray).
+    pub retextured: u64,
     /// Per ray-traced source (the scene's lights first, in order, then selected
     /// radiant patches): the diffuse hits that sampled it and the shadow rays cast.
     pub sources: Vec<SourceCount>,
@@ -81,6 +84,7 @@ impl AddAssign for Counters {
         self.gather_rays += o.gather_rays;
         self.gather_records += o.gather_records;
         self.gather_reused += o.gather_reused;
+        self.retextured += o.retextured;
         if self.sources.len() < o.sources.len() {
             self.sources.resize(o.sources.len(), SourceCount::default());
         }

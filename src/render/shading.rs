@@ -5,7 +5,7 @@ use glam::Vec3;
 use super::counters::Counters;
 use super::gather::{self, Gather};
 use super::glass;
-use super::sib::{self, SibQuery};
+use super::sib::{self, Lighting, SibQuery};
 use super::Settings;
 use crate::accel::{Accel, Hit, Ray};
 use crate::bsdf::microfacet::Frame;
@@ -215,6 +215,7 @@ impl<'a> Tracer<'a> {
         }
         if kind.has_diffuse() {
             counters.diffuse_hits += 1;
+            let before = l;
             let shade = Shade {
                 sp: &sp,
                 kind: &kind,
@@ -281,6 +282,11 @@ impl<'a> Tracer<'a> {
                     sum
                 }
             };
+            // What the texture multiplies, for the anti-aliasing samples that take
+            // this sample's light ([`Self::retextured`]).
+            if let Some(q) = sib.filter(|_| depth == 0 && before == Vec3::ZERO) {
+                q.lighting = Lighting::of(bsdf, &kind, l);
+            }
         }
         if depth < self.max_depth {
             if let Some(lobe) = kind.glossy() {
@@ -304,6 +310,28 @@ impl<'a> Tracer<'a> {
             }
         }
         l
+    }
+
+    /// Radiance along primary ray `ray` that meets object `object` where its texture
+    /// alone varies: the light of a sample near it, `from` (its diffuse part
+    /// `lighting` and the rest `rest`), with the diffuse part scaled by this hit's own
+    /// texel. No shadow, gather or glossy ray is cast. `None` where the ray meets
+    /// another object or a material whose light the texel does not scale alone (see
+    /// [`Lighting::of`]): the caller traces the sample in full.
+    pub fn retextured(&self, ray: &Ray, object: u32, per_albedo: Rgb, rest: Rgb) -> Option<(Rgb, Lighting)> {
+        let hit = self.accel.intersect(ray).filter(|h| h.shape == object)?;
+        let mut sp = SurfacePoint::new(self.scene, ray, &hit);
+        if let Some(scale) = self.pixel_scale {
+            sp = sp.with_footprint(scale.length(1.0, hit.t * ray.dir.length()));
+        }
+        let (bsdf, kind) = sp.material(self.scene);
+        if (!sp.front && !bsdf.twosided) || sp.ns.dot(-ray.dir) <= 0.0 {
+            return None;
+        }
+        let albedo = kind.diffuse_albedo();
+        let diffuse = albedo * per_albedo;
+        let lighting = Lighting::of(bsdf, &kind, diffuse)?;
+        Some((rest + diffuse, lighting))
     }
 
     /// What a glossy lobe at `sp` reflects towards `wo`: the lights by light

@@ -21,6 +21,7 @@
 //! where we do not use the SIB").
 
 use crate::sampling::Stratum;
+use crate::scene::{Bsdf, BsdfKind, Rgb, TexField};
 
 /// "No object": a sample whose primary ray hit nothing.
 pub const NO_OBJECT: u32 = u32::MAX;
@@ -144,6 +145,9 @@ pub struct SibQuery<'a> {
     /// Which of its pixel's samples at its level this one is: the level's samples
     /// together spread their light points over each group.
     pub stratum: Stratum,
+    /// Set by the shading: the first hit's diffuse light, where its texture alone
+    /// scales it (see [`Lighting`]).
+    pub lighting: Option<Lighting>,
 }
 
 impl<'a> SibQuery<'a> {
@@ -157,6 +161,7 @@ impl<'a> SibQuery<'a> {
             object: NO_OBJECT,
             ray_divisor: 1,
             stratum: Stratum::WHOLE,
+            lighting: None,
         }
     }
 
@@ -164,6 +169,46 @@ impl<'a> SibQuery<'a> {
     /// neighbour, and every neighbour on the same object.
     pub fn usable(&self, object: u32) -> bool {
         self.reuse && !self.neighbours.is_empty() && self.neighbours.iter().all(|n| n.object == object)
+    }
+}
+
+/// A primary hit's diffuse light as its texture scales it: where only the diffuse
+/// reflectance of a (rough) plastic or diffuse material is textured, the diffuse part
+/// of the radiance is the texel times light that does not depend on it (the
+/// radiosity's texture ratio, the gather's and the light samples' BRDF are all linear
+/// in it), so a sample nearby with another texel has `diffuse / albedo` times its own
+/// albedo, and the rest (glossy, mirror) unchanged.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Lighting {
+    /// The diffuse albedo at the hit (the texel, through the material's model).
+    pub albedo: Rgb,
+    /// The diffuse part of the radiance.
+    pub diffuse: Rgb,
+}
+
+impl Lighting {
+    /// The diffuse part `diffuse` at a hit on `bsdf` (of model `kind` there), if its
+    /// texture alone scales it: textures on the diffuse reflectance only (no bump,
+    /// mask, blend weight or specular texture), and an albedo above 0 in every
+    /// channel (a black texel scales nothing back).
+    pub fn of(bsdf: &Bsdf, kind: &BsdfKind, diffuse: Rgb) -> Option<Lighting> {
+        let modulated = !bsdf.textures.is_empty()
+            && bsdf
+                .textures
+                .iter()
+                .all(|t| t.field == TexField::Diffuse && t.path.is_empty())
+            && matches!(
+                kind,
+                BsdfKind::Diffuse { .. } | BsdfKind::Plastic { .. } | BsdfKind::RoughPlastic { .. }
+            );
+        let albedo = kind.diffuse_albedo();
+        (modulated && albedo.min_element() > 0.0 && diffuse.is_finite())
+            .then_some(Lighting { albedo, diffuse })
+    }
+
+    /// The diffuse light per unit albedo.
+    pub fn per_albedo(&self) -> Rgb {
+        self.diffuse / self.albedo
     }
 }
 
@@ -190,6 +235,45 @@ pub fn point_bits(record: &[Entry], slot: &[Option<u32>], out: &mut [u64]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Only a texture on the diffuse reflectance, of a diffuse or plastic model, with
+    /// every channel above 0, scales the diffuse light alone.
+    #[test]
+    fn lighting_is_kept_where_the_texel_alone_scales_the_diffuse_light() {
+        use crate::testutil::slot;
+        let rho = glam::Vec3::new(0.5, 0.4, 0.3);
+        let diffuse = BsdfKind::Diffuse { reflectance: rho };
+        let bsdf = |fields: &[TexField]| Bsdf {
+            name: "b".into(),
+            kind: diffuse.clone(),
+            twosided: false,
+            textures: fields.iter().map(|&f| slot(f, 0)).collect(),
+        };
+        let light = glam::Vec3::new(0.1, 0.2, 0.3);
+        let l = Lighting::of(&bsdf(&[TexField::Diffuse]), &diffuse, light * rho).unwrap();
+        assert!((l.per_albedo() - light).abs().max_element() < 1e-6);
+        assert_eq!(Lighting::of(&bsdf(&[]), &diffuse, light), None, "untextured");
+        for other in [
+            TexField::Bump,
+            TexField::Normal,
+            TexField::Opacity,
+            TexField::Specular,
+        ] {
+            let b = bsdf(&[TexField::Diffuse, other]);
+            assert_eq!(Lighting::of(&b, &diffuse, light), None, "{other:?}");
+        }
+        let mut blended = bsdf(&[TexField::Diffuse]);
+        blended.textures[0].path = vec![true];
+        assert_eq!(Lighting::of(&blended, &diffuse, light), None, "inside a blend");
+        let black = BsdfKind::Diffuse {
+            reflectance: glam::Vec3::new(0.5, 0.0, 0.3),
+        };
+        assert_eq!(
+            Lighting::of(&bsdf(&[TexField::Diffuse]), &black, light),
+            None,
+            "black channel"
+        );
+    }
 
     fn rec(entries: &[(u32, u32, bool)]) -> Vec<Entry> {
         let mut r = Vec::new();

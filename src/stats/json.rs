@@ -289,6 +289,9 @@ pub struct RenderStats {
     pub gather_records: u64,
     /// Diffuse hits that took their gather from the records.
     pub gather_reused: u64,
+    /// Anti-aliasing samples that took a nearby sample's light and looked up only
+    /// their own texel (`--retexture`).
+    pub retextured: u64,
     /// `shadow_rays / diffuse_hits`.
     pub shadow_rays_per_hit: f64,
     /// Pixels that are NaN or infinite.
@@ -379,6 +382,7 @@ impl RenderStats {
             gather_rays: c.gather_rays,
             gather_records: c.gather_records,
             gather_reused: c.gather_reused,
+            retextured: c.retextured,
             shadow_rays_per_hit: c.rays_per_hit(),
             non_finite_pixels: out.non_finite_pixels,
             levels: out.levels.clone(),

@@ -54,6 +54,7 @@ fn settings(w: u32, h: u32, sib: bool) -> Settings {
             contrast: 0.05,
             exposure: 0.0,
             sib,
+            retexture: false,
         },
     }
 }
@@ -202,6 +203,7 @@ fn the_difference_criterion_refines_only_where_values_differ() {
         level: 0,
         rays: 0,
         saved: 0,
+        lighting: None,
     };
     let at = |value: Vec3, exposure: f32| Sample {
         value,
@@ -339,4 +341,132 @@ fn anti_aliasing_samples_share_the_shadow_rays_of_a_penumbra_without_losing_it()
             assert_eq!(most(level), Some(rays), "{groups} groups, level {level}");
         }
     }
+}
+
+/// [`floor_scene`] with a texture of random grey texels on the floor, each 40 / 512
+/// units (about a pixel at 40 x 40), looked up at the nearest texel.
+fn textured_floor(w: u32, h: u32) -> Scene {
+    use crate::scene::texture::TexFilter;
+    use crate::scene::{TexField, Texture};
+    let mut s = floor_scene(true, w, h);
+    s.shapes[0].mesh.uvs = vec![
+        Vec2::new(0.0, 0.0),
+        Vec2::new(1.0, 0.0),
+        Vec2::new(1.0, 1.0),
+        Vec2::new(0.0, 1.0),
+    ];
+    let n = 512;
+    let texels = (0..n * n)
+        .map(|i| [0.15 + 0.7 * crate::sampling::uniform2(i).x; 3])
+        .collect();
+    let mut t = Texture::from_linear("grain", n, n, texels).unwrap();
+    t.filter = TexFilter::Nearest;
+    crate::testutil::texture_on(&mut s, 0, TexField::Diffuse, t);
+    s
+}
+
+/// Where only the floor's texels vary, anti-aliasing samples take their pixel's light
+/// and look up their own texel; the picture is the one traced in full (the light of
+/// a point light moves by under 1 % across a pixel), also along the shadow edge at
+/// x = -1, whose pixels the shadow criterion keeps in full.
+#[test]
+fn retextured_samples_keep_the_picture_where_only_a_texture_varies() {
+    let (w, h) = (40, 40);
+    let sc = textured_floor(w, h);
+    let full = settings(w, h, true);
+    let mut st = full.clone();
+    st.refine.retexture = true;
+    let (a, b) = (run(&sc, &full), run(&sc, &st));
+    assert_eq!(a.counters.retextured, 0);
+    let aa = b.set.samples.iter().filter(|s| s.level >= 1).count() as u64;
+    assert!(
+        b.counters.retextured > aa / 2 && b.counters.retextured < aa,
+        "{} of {aa}",
+        b.counters.retextured
+    );
+    // Retextured samples cast nothing and save nothing; none lies in a pixel the
+    // shadow edge crosses, nor in one beside it.
+    let mut near_edge = 0;
+    for p in 0..w * h {
+        let xs: Vec<f32> = b
+            .set
+            .pixel(p)
+            .iter()
+            .map(|&i| floor_x(&sc, &st, &b.set.samples[i as usize]))
+            .collect();
+        let pitch = 3.0 / w as f32;
+        if xs.iter().any(|&x| (x + 1.0).abs() < pitch) {
+            near_edge += 1;
+            for &i in b.set.pixel(p) {
+                let s = &b.set.samples[i as usize];
+                assert!(
+                    s.rays + s.saved > 0,
+                    "a sample at x = {} took its light",
+                    floor_x(&sc, &st, s)
+                );
+            }
+        }
+    }
+    assert!(near_edge >= 2 * h, "{near_edge}");
+    // Pixel by pixel, within the light's change across a pixel (1.6 % at the
+    // corners; 0.27 % on the mean here, 1.3 % at worst); a pixel refined at another level (the criteria compare values that
+    // moved by that much) differs by its texels' sampling.
+    let (ia, ib) = (a.set.reconstruct(Filter::Box), b.set.reconstruct(Filter::Box));
+    let (mut worst, mut mean, mut other_level) = (0.0f32, 0.0f32, 0);
+    for (k, (p, q)) in ia.pixels.iter().zip(&ib.pixels).enumerate() {
+        let d = ((*p - *q).abs() / p.max(Vec3::splat(0.01))).max_element();
+        mean += d / (w * h) as f32;
+        if a.set.pixel(k as u32).len() == b.set.pixel(k as u32).len() {
+            worst = worst.max(d);
+        } else {
+            other_level += 1;
+        }
+    }
+    assert!(worst < 0.02, "worst relative difference {worst}");
+    assert!(mean < 0.004, "mean relative difference {mean}");
+    assert!(
+        other_level < w * h / 100,
+        "{other_level} pixels refined otherwise"
+    );
+}
+
+/// Samples differ by their texture alone when, with the first's texel put in for
+/// each, the refinement criteria no longer fire.
+#[test]
+fn texture_alone_separates_texels_from_light() {
+    let lit: &[u64] = &[1, 1];
+    let at = |albedo: f32, light: f32, object: u32| {
+        let diffuse = Vec3::splat(albedo * light);
+        let value = diffuse + Vec3::splat(0.02);
+        Sample {
+            pos: Vec2::ZERO,
+            value,
+            display: display(value, 0.0),
+            object,
+            level: 0,
+            rays: 0,
+            saved: 0,
+            lighting: Some(Lighting {
+                albedo: Vec3::splat(albedo),
+                diffuse,
+            }),
+        }
+    };
+    let r = Refine::default();
+    let (a, b) = (at(0.2, 1.0, 1), at(0.8, 1.0, 1));
+    assert!(
+        differ([(&a, lit), (&b, lit)], &r),
+        "the texels differ on the display"
+    );
+    assert!(texture_alone([(&a, lit), (&b, lit)], &r));
+    // The light differs too: by half at albedo 0.2, 0.22 -> 0.32 in radiance, 0.51
+    // -> 0.60 on the display, over the contrast.
+    assert!(!texture_alone([(&a, lit), (&at(0.8, 1.5, 1), lit)], &r));
+    // By 1 %: within it.
+    assert!(texture_alone([(&a, lit), (&at(0.8, 1.01, 1), lit)], &r));
+    assert!(!texture_alone([(&a, lit), (&at(0.8, 1.0, 2), lit)], &r), "object");
+    assert!(!texture_alone([(&a, lit), (&b, &[1, 0][..])], &r), "shadow");
+    let untextured = Sample { lighting: None, ..b };
+    assert!(!texture_alone([(&a, lit), (&untextured, lit)], &r), "no lighting");
+    assert!(!texture_alone(std::iter::empty(), &r));
 }
