@@ -505,11 +505,11 @@ fn texture_alone<'s>(samples: impl IntoIterator<Item = (&'s Sample, &'s [u64])>,
     let mut first: Option<(u32, Rgb)> = None;
     for (s, bits) in samples {
         let Some(l) = s.lighting else { return false };
-        let (object, albedo) = *first.get_or_insert((s.object, l.albedo));
+        let (object, albedo) = *first.get_or_insert((s.object, l.albedo()));
         if s.object != object {
             return false;
         }
-        let value = s.value - l.diffuse + albedo * l.per_albedo();
+        let value = s.value - l.diffuse() + albedo * l.per_albedo();
         relit.push((
             Sample {
                 value,
@@ -706,7 +706,7 @@ impl LevelCtx<'_> {
                     counters.primary_rays += 1;
                     if let Some(from) = read.samples.get(t.relight as usize) {
                         let retextured = from.lighting.and_then(|l| {
-                            tracer.retextured(&ray, from.object, l.per_albedo(), from.value - l.diffuse)
+                            tracer.retextured(&ray, from.object, l.per_albedo(), from.value - l.diffuse())
                         });
                         if let Some((value, lighting)) = retextured {
                             counters.retextured += 1;

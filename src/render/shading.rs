@@ -313,9 +313,9 @@ impl<'a> Tracer<'a> {
     }
 
     /// Radiance along primary ray `ray` that meets object `object` where its texture
-    /// alone varies: the light of a sample near it, `from` (its diffuse part
-    /// `lighting` and the rest `rest`), with the diffuse part scaled by this hit's own
-    /// texel. No shadow, gather or glossy ray is cast. `None` where the ray meets
+    /// alone varies: the light of a sample near it, its diffuse light per unit albedo
+    /// `per_albedo` times this hit's own albedo, plus its other light `rest` (glossy,
+    /// mirror) as it was. No shadow, gather or glossy ray is cast. `None` where the ray meets
     /// another object or a material whose light the texel does not scale alone (see
     /// [`Lighting::of`]): the caller traces the sample in full.
     pub fn retextured(&self, ray: &Ray, object: u32, per_albedo: Rgb, rest: Rgb) -> Option<(Rgb, Lighting)> {

@@ -22,6 +22,8 @@
 
 use crate::sampling::Stratum;
 use crate::scene::{Bsdf, BsdfKind, Rgb, TexField};
+use glam::Vec3;
+use half::f16;
 
 /// "No object": a sample whose primary ray hit nothing.
 pub const NO_OBJECT: u32 = u32::MAX;
@@ -177,13 +179,15 @@ impl<'a> SibQuery<'a> {
 /// of the radiance is the texel times light that does not depend on it (the
 /// radiosity's texture ratio, the gather's and the light samples' BRDF are all linear
 /// in it), so a sample nearby with another texel has `diffuse / albedo` times its own
-/// albedo, and the rest (glossy, mirror) unchanged.
+/// albedo, and the rest (glossy, mirror) unchanged. Kept in half floats (relative
+/// error 2^-11), 12 bytes beside every sample of the adaptive sampler: in f32 its 24
+/// took the staircase's peak memory at 720 x 1280 from 1.09 to 1.42 GB.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Lighting {
     /// The diffuse albedo at the hit (the texel, through the material's model).
-    pub albedo: Rgb,
-    /// The diffuse part of the radiance.
-    pub diffuse: Rgb,
+    albedo: [f16; 3],
+    /// The diffuse light per unit albedo.
+    per_albedo: [f16; 3],
 }
 
 impl Lighting {
@@ -201,14 +205,33 @@ impl Lighting {
                 kind,
                 BsdfKind::Diffuse { .. } | BsdfKind::Plastic { .. } | BsdfKind::RoughPlastic { .. }
             );
-        let albedo = kind.diffuse_albedo();
-        (modulated && albedo.min_element() > 0.0 && diffuse.is_finite())
-            .then_some(Lighting { albedo, diffuse })
+        modulated.then(|| Lighting::new(kind.diffuse_albedo(), diffuse))?
+    }
+
+    /// Albedo `albedo` and diffuse light `diffuse`, if half floats hold them (the
+    /// albedo above 0 in every channel, the light per unit albedo finite).
+    pub fn new(albedo: Rgb, diffuse: Rgb) -> Option<Lighting> {
+        let half = |v: Rgb| v.to_array().map(f16::from_f32);
+        let l = Lighting {
+            albedo: half(albedo),
+            per_albedo: half(diffuse / albedo),
+        };
+        (l.albedo().min_element() > 0.0 && l.per_albedo().is_finite()).then_some(l)
+    }
+
+    /// The diffuse albedo at the hit.
+    pub fn albedo(&self) -> Rgb {
+        Vec3::from_array(self.albedo.map(f16::to_f32))
     }
 
     /// The diffuse light per unit albedo.
     pub fn per_albedo(&self) -> Rgb {
-        self.diffuse / self.albedo
+        Vec3::from_array(self.per_albedo.map(f16::to_f32))
+    }
+
+    /// The diffuse part of the radiance.
+    pub fn diffuse(&self) -> Rgb {
+        self.albedo() * self.per_albedo()
     }
 }
 
@@ -251,7 +274,12 @@ mod tests {
         };
         let light = glam::Vec3::new(0.1, 0.2, 0.3);
         let l = Lighting::of(&bsdf(&[TexField::Diffuse]), &diffuse, light * rho).unwrap();
-        assert!((l.per_albedo() - light).abs().max_element() < 1e-6);
+        // Within half floats' rounding.
+        assert!(((l.per_albedo() - light) / light).abs().max_element() < 1e-3);
+        assert!(((l.albedo() - rho) / rho).abs().max_element() < 1e-3);
+        assert!(((l.diffuse() - light * rho) / (light * rho)).abs().max_element() < 2e-3);
+        // Light past what half floats hold is not kept.
+        assert_eq!(Lighting::new(rho, glam::Vec3::splat(1e6)), None);
         assert_eq!(Lighting::of(&bsdf(&[]), &diffuse, light), None, "untextured");
         for other in [
             TexField::Bump,

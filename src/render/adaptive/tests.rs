@@ -446,10 +446,7 @@ fn texture_alone_separates_texels_from_light() {
             level: 0,
             rays: 0,
             saved: 0,
-            lighting: Some(Lighting {
-                albedo: Vec3::splat(albedo),
-                diffuse,
-            }),
+            lighting: Lighting::new(Vec3::splat(albedo), diffuse),
         }
     };
     let r = Refine::default();
