@@ -366,9 +366,9 @@ fn textured_floor(w: u32, h: u32) -> Scene {
 }
 
 /// Where only the floor's texels vary, anti-aliasing samples take their pixel's light
-/// and look up their own texel; the picture is the one traced in full (the light of
-/// a point light moves by under 1 % across a pixel), also along the shadow edge at
-/// x = -1, whose pixels the shadow criterion keeps in full.
+/// and look up their own texel; the picture is the one traced in full, within the
+/// point light's change across a pixel, and the pixels on and beside the shadow edge
+/// at x = -1 are traced in full.
 #[test]
 fn retextured_samples_keep_the_picture_where_only_a_texture_varies() {
     let (w, h) = (40, 40);
@@ -408,9 +408,10 @@ fn retextured_samples_keep_the_picture_where_only_a_texture_varies() {
         }
     }
     assert!(near_edge >= 2 * h, "{near_edge}");
-    // Pixel by pixel, within the light's change across a pixel (1.6 % at the
-    // corners; 0.27 % on the mean here, 1.3 % at worst); a pixel refined at another level (the criteria compare values that
-    // moved by that much) differs by its texels' sampling.
+    // Pixel by pixel, within the light's change across a pixel (up to 1.6 % at the
+    // corners; 0.27 % on the mean here, 1.3 % at worst). A pixel refined to another
+    // level (the criteria compare values that moved by that much) differs by the
+    // sampling of its texels.
     let (ia, ib) = (a.set.reconstruct(Filter::Box), b.set.reconstruct(Filter::Box));
     let (mut worst, mut mean, mut other_level) = (0.0f32, 0.0f32, 0);
     for (k, (p, q)) in ia.pixels.iter().zip(&ib.pixels).enumerate() {
