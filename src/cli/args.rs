@@ -411,7 +411,8 @@ pub struct RenderArgs {
     /// Retextured anti-aliasing samples: `on`, where a pixel is refined only because
     /// a texture varies across it (its samples' light agrees once their texels are
     /// set alike), its new samples take the light of its nearest sample and look up
-    /// only their own texel; `off` traces every sample in full.
+    /// only their own texel (where only its glossy part differs, they take the diffuse
+    /// light and trace the glossy part anew); `off` traces every sample in full.
     #[arg(long, value_enum, default_value = "on")]
     pub(super) retexture: OnOff,
     /// Write pictures of the method to this folder: the shadow image of each

@@ -30,8 +30,10 @@
 //! (`texture_alone`: one object, a texture on the diffuse reflectance only, and the
 //! criteria quiet once every texel is set alike), its new samples take the light of its
 //! nearest sample ([`Lighting`]) and trace only their primary ray
-//! ([`Tracer::retextured`]). Wooden staircase: 422 k of 1.18 M anti-aliasing samples,
-//! render 6.7-7.1 -> 6.1 s, FLIP 0.0539 / 0.0546 -> 0.0544 / 0.0550.
+//! ([`Tracer::retextured`]); where the criteria are quiet on the diffuse light alone,
+//! they take that and trace the glossy and mirror parts anew (`SibQuery::given`).
+//! Wooden staircase: 422 k + 257 k of 1.18 M anti-aliasing samples, render 6.7-7.1 ->
+//! 5.7-5.8 s, FLIP 0.0539 / 0.0546 -> 0.0546 / 0.0552.
 //!
 //! Refinement criteria (Sect. 6): *object* (samples hit different objects), *shadow*
 //! (a real point light is lit at one sample and shadowed at the other, read from the
@@ -220,6 +222,19 @@ struct Task {
     stratum: Stratum,
     /// The sample whose light it takes, retextured, or [`NONE`]: traced in full.
     relight: u32,
+    /// What it takes from that sample.
+    takes: Takes,
+}
+
+/// What a retextured sample takes from the sample near it, its own texel put in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Takes {
+    /// Nothing: traced in full.
+    Nothing,
+    /// The diffuse light; the glossy and mirror parts are traced anew.
+    Diffuse,
+    /// All its light: only the primary ray is traced.
+    All,
 }
 
 /// Parameters of the adaptive sampler beyond the render settings.
@@ -339,6 +354,7 @@ pub fn render_adaptive(
                 neighbours: [NONE; 4],
                 stratum: Stratum::WHOLE,
                 relight: NONE,
+                takes: Takes::Nothing,
             }
         })
         .collect();
@@ -361,6 +377,7 @@ pub fn render_adaptive(
                 neighbours: four_from(bx, by, bw, bh, |bx, by| block_first + by * bw + bx),
                 stratum: Stratum::WHOLE,
                 relight: NONE,
+                takes: Takes::Nothing,
             }
         })
         .collect();
@@ -403,15 +420,17 @@ pub fn render_adaptive(
                 // Where this pixel's samples and its neighbours' stored ones differ
                 // by their texels alone, the new ones take their light and look up
                 // only their own texel.
-                let retexture = refine.retexture
-                    && texture_alone(
+                let takes = match refine.retexture {
+                    false => Takes::Nothing,
+                    true => texture_alone(
                         (y.saturating_sub(1)..=(y + 1).min(h - 1))
                             .flat_map(|ny| {
                                 (x.saturating_sub(1)..=(x + 1).min(w - 1)).map(move |nx| stored(nx, ny))
                             })
                             .chain(set.pixel(p).iter().map(|&i| set.with_bits(i))),
                         refine,
-                    );
+                    ),
+                };
                 let mut taken = vec![false; (cells * cells) as usize];
                 for &i in set.pixel(p) {
                     let s = set.samples[i as usize].pos;
@@ -433,9 +452,9 @@ pub fn render_adaptive(
                         jitter(seed),
                     );
                     // The pixel's nearest sample lends its light.
-                    let relight = match retexture {
-                        true => nearest_in(set, p, pos),
-                        false => NONE,
+                    let relight = match takes {
+                        Takes::Nothing => NONE,
+                        _ => nearest_in(set, p, pos),
                     };
                     Task {
                         pos,
@@ -446,6 +465,7 @@ pub fn render_adaptive(
                             count,
                         },
                         relight,
+                        takes,
                     }
                 })
             })
@@ -498,28 +518,47 @@ fn nearest_in(set: &SampleSet, p: u32, pos: Vec2) -> u32 {
 /// Whether `samples` (each with its point bits) differ by their texels alone: all on
 /// one object whose texture alone scales their diffuse light ([`Lighting`]), and
 /// with every sample's texel replaced by the first's, the refinement criteria
-/// ([`differ`]) no longer fire. Then the light between them is smooth, and new samples
-/// there may take it from the nearest of them.
-fn texture_alone<'s>(samples: impl IntoIterator<Item = (&'s Sample, &'s [u64])>, refine: &Refine) -> bool {
-    let mut relit: Vec<(Sample, &[u64])> = Vec::with_capacity(9);
-    let mut first: Option<(u32, Rgb)> = None;
+/// ([`differ`]) no longer fire: then new samples there may take all the light of the
+/// nearest of them. If the criteria fire only by the glossy and mirror parts (a
+/// glossy lobe's noise), the new samples take its diffuse light alone.
+fn texture_alone<'s>(samples: impl IntoIterator<Item = (&'s Sample, &'s [u64])>, refine: &Refine) -> Takes {
+    let mut kept: Vec<(&Sample, Lighting, &[u64])> = Vec::with_capacity(13);
     for (s, bits) in samples {
-        let Some(l) = s.lighting else { return false };
-        let (object, albedo) = *first.get_or_insert((s.object, l.albedo()));
-        if s.object != object {
-            return false;
+        let Some(l) = s.lighting else {
+            return Takes::Nothing;
+        };
+        if kept.first().is_some_and(|(f, _, _)| f.object != s.object) {
+            return Takes::Nothing;
         }
-        let value = s.value - l.diffuse() + albedo * l.per_albedo();
-        relit.push((
-            Sample {
-                value,
-                display: display(value, refine.exposure),
-                ..*s
-            },
-            bits,
-        ));
+        kept.push((s, l, bits));
     }
-    !relit.is_empty() && !differ(relit.iter().map(|(s, b)| (s, *b)), refine)
+    let Some(albedo) = kept.first().map(|(_, l, _)| l.albedo()) else {
+        return Takes::Nothing;
+    };
+    let relit = |part: &dyn Fn(&Sample, &Lighting) -> Rgb| -> Vec<(Sample, &[u64])> {
+        kept.iter()
+            .map(|(s, l, bits)| {
+                let value = part(s, l) + albedo * l.per_albedo();
+                let display = display(value, refine.exposure);
+                (
+                    Sample {
+                        value,
+                        display,
+                        ..**s
+                    },
+                    *bits,
+                )
+            })
+            .collect()
+    };
+    let quiet = |v: &[(Sample, &[u64])]| !differ(v.iter().map(|(s, b)| (s, *b)), refine);
+    if quiet(&relit(&|s, l| s.value - l.diffuse())) {
+        Takes::All
+    } else if quiet(&relit(&|_, _| Vec3::ZERO)) {
+        Takes::Diffuse
+    } else {
+        Takes::Nothing
+    }
 }
 
 /// The stored samples of the (up to) four pixels whose centres surround `pos`.
@@ -704,7 +743,11 @@ impl LevelCtx<'_> {
                     let ray =
                         camera.ray_through_lens(t.pos.x, t.pos.y, uniform2(derive(t.seed, Stream::Lens)));
                     counters.primary_rays += 1;
-                    if let Some(from) = read.samples.get(t.relight as usize) {
+                    let from = read.samples.get(t.relight as usize);
+                    if t.takes == Takes::Diffuse {
+                        q.given = from.and_then(|f| Some((f.object, f.lighting?.per_albedo())));
+                    }
+                    if let Some(from) = from.filter(|_| t.takes == Takes::All) {
                         let retextured = from.lighting.and_then(|l| {
                             tracer.retextured(&ray, from.object, l.per_albedo(), from.value - l.diffuse())
                         });

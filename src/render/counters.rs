@@ -27,8 +27,8 @@ pub struct Counters {
     pub gather_records: u64,
     /// Hits that took their gather from the records (the others gathered anew).
     pub gather_reused: u64,
-    /// Anti-aliasing samples that took a nearby sample's light and looked up only
-    /// their own texel (no shadow, gather or glossy ray).
+    /// Anti-aliasing samples that took a nearby sample's light through their own
+    /// texel: all of it (no shadow, gather or glossy ray), or its diffuse part.
     pub retextured: u64,
     /// Per ray-traced source (the scene's lights first, in order, then selected
     /// radiant patches): the diffuse hits that sampled it and the shadow rays cast.

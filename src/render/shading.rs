@@ -213,7 +213,21 @@ impl<'a> Tracer<'a> {
         if cos_v <= 0.0 {
             return l;
         }
-        if kind.has_diffuse() {
+        // A retextured sample's first hit on the object whose light it was given:
+        // that light through this hit's texel.
+        let given = sib
+            .as_ref()
+            .and_then(|q| q.given)
+            .filter(|&(object, _)| depth == 0 && object == hit.shape)
+            .filter(|_| l == Vec3::ZERO && Lighting::of(bsdf, &kind, Vec3::ONE).is_some());
+        if let Some((_, per_albedo)) = given {
+            counters.retextured += 1;
+            let diffuse = kind.diffuse_albedo() * per_albedo;
+            l += diffuse;
+            if let Some(q) = sib.as_deref_mut() {
+                q.lighting = Lighting::of(bsdf, &kind, diffuse);
+            }
+        } else if kind.has_diffuse() {
             counters.diffuse_hits += 1;
             let before = l;
             let shade = Shade {
@@ -1039,6 +1053,14 @@ mod tests {
         assert!(((va - vb) / vb).abs().max_element() > 0.4, "{va} {vb}");
         // Another object, or none: traced in full.
         assert_eq!(tracer.retextured(&ray_b, 1, la.per_albedo(), rest), None);
+        // Given the diffuse light alone, the glossy part traced anew: the same.
+        let mut record = Vec::new();
+        let mut q = SibQuery::new(false, &[], &mut record);
+        q.given = Some((0, la.per_albedo()));
+        let mut c = Counters::default();
+        let v = tracer.radiance_sib(&ray_b, 1, &mut c, &mut q);
+        assert!(((v - vb) / vb).abs().max_element() < 2e-3, "{v} against {vb}");
+        assert_eq!((c.retextured, c.diffuse_hits), (1, 0));
     }
 
     #[test]

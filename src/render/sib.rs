@@ -150,6 +150,10 @@ pub struct SibQuery<'a> {
     /// Set by the shading: the first hit's diffuse light, where its texture alone
     /// scales it (see [`Lighting`]).
     pub lighting: Option<Lighting>,
+    /// Set by the sampler for a retextured sample that takes the diffuse light
+    /// alone: the object and the diffuse light per unit albedo a sample near it found
+    /// there; a first hit on that object takes it through its own texel.
+    pub given: Option<(u32, Rgb)>,
 }
 
 impl<'a> SibQuery<'a> {
@@ -164,6 +168,7 @@ impl<'a> SibQuery<'a> {
             ray_divisor: 1,
             stratum: Stratum::WHOLE,
             lighting: None,
+            given: None,
         }
     }
 

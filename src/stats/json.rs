@@ -289,8 +289,8 @@ pub struct RenderStats {
     pub gather_records: u64,
     /// Diffuse hits that took their gather from the records.
     pub gather_reused: u64,
-    /// Anti-aliasing samples that took a nearby sample's light and looked up only
-    /// their own texel (`--retexture`).
+    /// Anti-aliasing samples that took a nearby sample's light through their own
+    /// texel (`--retexture`): all of it, or its diffuse part.
     pub retextured: u64,
     /// `shadow_rays / diffuse_hits`.
     pub shadow_rays_per_hit: f64,

@@ -432,13 +432,16 @@ fn retextured_samples_keep_the_picture_where_only_a_texture_varies() {
 }
 
 /// Samples differ by their texture alone when, with the first's texel put in for
-/// each, the refinement criteria no longer fire.
+/// each, the refinement criteria no longer fire; by their texture and their glossy
+/// part when the criteria are quiet on the diffuse light alone.
 #[test]
 fn texture_alone_separates_texels_from_light() {
     let lit: &[u64] = &[1, 1];
-    let at = |albedo: f32, light: f32, object: u32| {
+    // A sample of albedo `albedo` under diffuse light `light` per unit albedo, with
+    // a glossy part `glossy`.
+    let at = |albedo: f32, light: f32, glossy: f32, object: u32| {
         let diffuse = Vec3::splat(albedo * light);
-        let value = diffuse + Vec3::splat(0.02);
+        let value = diffuse + Vec3::splat(glossy);
         Sample {
             pos: Vec2::ZERO,
             value,
@@ -451,20 +454,24 @@ fn texture_alone_separates_texels_from_light() {
         }
     };
     let r = Refine::default();
-    let (a, b) = (at(0.2, 1.0, 1), at(0.8, 1.0, 1));
+    let (a, b) = (at(0.2, 1.0, 0.02, 1), at(0.8, 1.0, 0.02, 1));
+    let alone = |x: &Sample, y: &Sample, bits: &[u64]| texture_alone([(x, lit), (y, bits)], &r);
     assert!(
         differ([(&a, lit), (&b, lit)], &r),
         "the texels differ on the display"
     );
-    assert!(texture_alone([(&a, lit), (&b, lit)], &r));
+    assert_eq!(alone(&a, &b, lit), Takes::All);
     // The light differs too: by half at albedo 0.2, 0.22 -> 0.32 in radiance, 0.51
     // -> 0.60 on the display, over the contrast.
-    assert!(!texture_alone([(&a, lit), (&at(0.8, 1.5, 1), lit)], &r));
+    assert_eq!(alone(&a, &at(0.8, 1.5, 0.02, 1), lit), Takes::Nothing);
     // By 1 %: within it.
-    assert!(texture_alone([(&a, lit), (&at(0.8, 1.01, 1), lit)], &r));
-    assert!(!texture_alone([(&a, lit), (&at(0.8, 1.0, 2), lit)], &r), "object");
-    assert!(!texture_alone([(&a, lit), (&b, &[1, 0][..])], &r), "shadow");
+    assert_eq!(alone(&a, &at(0.8, 1.01, 0.02, 1), lit), Takes::All);
+    // The glossy part differs (0.22 -> 0.32 again), the diffuse light not: the new
+    // samples take the diffuse light and trace the glossy part anew.
+    assert_eq!(alone(&a, &at(0.8, 1.0, 0.12, 1), lit), Takes::Diffuse);
+    assert_eq!(alone(&a, &at(0.8, 1.0, 0.02, 2), lit), Takes::Nothing, "object");
+    assert_eq!(alone(&a, &b, &[1, 0]), Takes::Nothing, "shadow");
     let untextured = Sample { lighting: None, ..b };
-    assert!(!texture_alone([(&a, lit), (&untextured, lit)], &r), "no lighting");
-    assert!(!texture_alone(std::iter::empty(), &r));
+    assert_eq!(alone(&a, &untextured, lit), Takes::Nothing, "no lighting");
+    assert_eq!(texture_alone(std::iter::empty(), &r), Takes::Nothing);
 }
