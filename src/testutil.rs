@@ -244,6 +244,27 @@ pub fn split_quad(c: [Vec3; 4], k: u32) -> crate::geometry::TriMesh {
     m
 }
 
+/// Mitsuba's `roughplastic` of diffuse reflectance `diffuse`: GGX of roughness
+/// `alpha`, a coating of index 1.5, `nonlinear` as given.
+pub fn rough_plastic(diffuse: Rgb, alpha: f32, nonlinear: bool) -> BsdfKind {
+    use crate::scene::{CoatingCell, Fresnel, Glossy, Microfacet};
+    BsdfKind::RoughPlastic {
+        diffuse_reflectance: diffuse,
+        lobe: Glossy {
+            distribution: Microfacet {
+                alpha_u: alpha,
+                alpha_v: alpha,
+                beckmann: false,
+            },
+            fresnel: Fresnel::Dielectric { eta: 1.5 },
+            scale: Vec3::ONE,
+        },
+        nonlinear,
+        coating: CoatingCell::default(),
+        pplastic: false,
+    }
+}
+
 /// A material's reading of texture `texture` as its `field` (factor 1, no path).
 pub fn slot(field: crate::scene::TexField, texture: u32) -> crate::scene::TexSlot {
     crate::scene::TexSlot {

@@ -986,7 +986,7 @@ mod tests {
     #[test]
     fn a_retextured_hit_is_the_hit_traced_in_full_behind_a_nonlinear_coating() {
         use crate::scene::texture::TexFilter;
-        use crate::scene::{CoatingCell, Fresnel, Microfacet, TexField, Texture};
+        use crate::scene::{TexField, Texture};
         let mut mesh = square(10.0, 0.0, false);
         mesh.uvs = vec![
             glam::Vec2::new(0.0, 0.0),
@@ -994,21 +994,7 @@ mod tests {
             glam::Vec2::new(1.0, 1.0),
             glam::Vec2::new(0.0, 1.0),
         ];
-        let kind = BsdfKind::RoughPlastic {
-            diffuse_reflectance: Vec3::splat(0.5),
-            lobe: Glossy {
-                distribution: Microfacet {
-                    alpha_u: 0.2,
-                    alpha_v: 0.2,
-                    beckmann: false,
-                },
-                fresnel: Fresnel::Dielectric { eta: 1.5 },
-                scale: Vec3::ONE,
-            },
-            nonlinear: true,
-            coating: CoatingCell::default(),
-            pplastic: false,
-        };
+        let kind = crate::testutil::rough_plastic(Vec3::splat(0.5), 0.2, true);
         let mut sc = scene(
             vec![(mesh, kind)],
             vec![Light::Point {

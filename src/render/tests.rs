@@ -765,23 +765,9 @@ fn a_rough_glass_floor_reflects_an_area_light_once_by_light_samples_and_facet_ra
 #[test]
 fn a_rough_plastic_floor_reflects_a_point_light_by_its_lobe_and_its_base() {
     use crate::accel::Ray;
-    use crate::scene::{BsdfKind, Fresnel, Glossy, Light, Microfacet};
+    use crate::scene::Light;
     use crate::testutil::{scene_with, square};
-    let kind = BsdfKind::RoughPlastic {
-        diffuse_reflectance: Vec3::new(0.6, 0.3, 0.1),
-        lobe: Glossy {
-            distribution: Microfacet {
-                alpha_u: 0.2,
-                alpha_v: 0.2,
-                beckmann: false,
-            },
-            fresnel: Fresnel::Dielectric { eta: 1.5 },
-            scale: Vec3::ONE,
-        },
-        nonlinear: false,
-        coating: Default::default(),
-        pplastic: false,
-    };
+    let kind = crate::testutil::rough_plastic(Vec3::new(0.6, 0.3, 0.1), 0.2, false);
     let (h, i) = (2.0f32, 10.0f32);
     let s = scene_with(
         vec![(square(-10.0, 10.0, -10.0, 10.0, 0.0, false), kind.clone())],
