@@ -77,9 +77,6 @@ pub struct Sample {
     pub pos: Vec2,
     /// Radiance found.
     pub value: Rgb,
-    /// Its display value (sRGB, 0..1, after the exposure): what the difference
-    /// criterion compares.
-    pub display: Vec3,
     /// The object (shape) the primary ray hit, or [`NO_OBJECT`].
     pub object: u32,
     /// The level it was taken at (-1 ..= max level).
@@ -539,15 +536,7 @@ fn texture_alone<'s>(samples: impl IntoIterator<Item = (&'s Sample, &'s [u64])>,
         kept.iter()
             .map(|(s, l, bits)| {
                 let value = part(s, l) + albedo * l.per_albedo();
-                let display = display(value, refine.exposure);
-                (
-                    Sample {
-                        value,
-                        display,
-                        ..**s
-                    },
-                    *bits,
-                )
+                (Sample { value, ..**s }, *bits)
             })
             .collect()
     };
@@ -621,12 +610,13 @@ where
             return true;
         }
         words = bits.len() / 2;
-        lo = lo.min(s.display);
-        hi = hi.max(s.display);
+        let shown = display(s.value, refine.exposure);
+        lo = lo.min(shown);
+        hi = hi.max(shown);
         let v = s.value.max_element();
         dim = dim.min(v);
         bright = bright.max(v);
-        white |= s.display.max_element() >= 1.0;
+        white |= shown.max_element() >= 1.0;
     }
     // Among samples white on the display, one many times brighter than another: a
     // light's image smaller than the pixel (the sun in a mirror ball), which one
@@ -757,7 +747,6 @@ impl LevelCtx<'_> {
                             samples.push(Sample {
                                 pos: t.pos,
                                 value,
-                                display: display(value, refine.exposure),
                                 object: from.object,
                                 level: level as i8,
                                 rays: 0,
@@ -777,7 +766,6 @@ impl LevelCtx<'_> {
                     samples.push(Sample {
                         pos: t.pos,
                         value,
-                        display: display(value, refine.exposure),
                         object,
                         level: level as i8,
                         rays: (counters.shadow_rays - cast_before) as u32,

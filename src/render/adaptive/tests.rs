@@ -198,23 +198,18 @@ fn the_difference_criterion_refines_only_where_values_differ() {
     let a = Sample {
         pos: Vec2::ZERO,
         value: Vec3::splat(0.5),
-        display: display(Vec3::splat(0.5), 0.0),
         object: 1,
         level: 0,
         rays: 0,
         saved: 0,
         lighting: None,
     };
-    let at = |value: Vec3, exposure: f32| Sample {
-        value,
-        display: display(value, exposure),
-        ..a
-    };
+    let at = |value: Vec3| Sample { value, ..a };
     // One point light, known and lit.
     let lit: &[u64] = &[1, 1];
     let r = Refine::default();
-    let c = at(Vec3::new(0.5, 0.5, 0.7), 0.0);
-    let small = at(Vec3::new(0.5, 0.5, 0.52), 0.0);
+    let c = at(Vec3::new(0.5, 0.5, 0.7));
+    let small = at(Vec3::new(0.5, 0.5, 0.52));
     assert!(!differ([(&a, lit), (&small, lit)], &r), "small");
     assert!(differ([(&a, lit), (&c, lit)], &r), "difference");
     assert!(
@@ -231,32 +226,24 @@ fn the_difference_criterion_refines_only_where_values_differ() {
     assert!(differ([(&a, on), (&a, off)], &r), "point light past the 64th");
     assert!(!differ([(&a, on), (&a, on)], &r));
     // Exposure: -8 stops makes the same difference invisible.
-    assert!(!differ(
-        [(&at(a.value, -8.0), lit), (&at(c.value, -8.0), lit)],
-        &r
-    ));
+    let dark = Refine { exposure: -8.0, ..r };
+    assert!(!differ([(&a, lit), (&c, lit)], &dark));
     // The display value is sRGB: mid grey 0.214 encodes to about 0.5.
     assert!((display(Vec3::splat(0.214), 0.0).x - 0.5).abs() < 0.002);
     assert_eq!(display(Vec3::splat(7.0), 0.0), Vec3::ONE);
     // Both white on the display: alike there, but the sun's image in a mirror ball is
     // hundreds of times its surroundings.
-    let (white, sun) = (
-        at(Vec3::splat(5.0), 0.0),
-        at(Vec3::new(8751.0, 7900.0, 6500.0), 0.0),
-    );
-    assert_eq!(white.display, sun.display);
+    let (white, sun) = (at(Vec3::splat(5.0)), at(Vec3::new(8751.0, 7900.0, 6500.0)));
+    assert_eq!(display(white.value, 0.0), display(sun.value, 0.0));
     assert!(differ([(&white, lit), (&sun, lit)], &r), "a light's image");
     assert!(
-        !differ([(&white, lit), (&at(Vec3::splat(70.0), 0.0), lit)], &r),
+        !differ([(&white, lit), (&at(Vec3::splat(70.0)), lit)], &r),
         "within 16 times"
     );
     // ...and where neither is white, the display values alone decide (two dark
     // samples 20 times apart, within the contrast).
     assert!(!differ(
-        [
-            (&at(Vec3::splat(1e-4), 0.0), lit),
-            (&at(Vec3::splat(2e-3), 0.0), lit)
-        ],
+        [(&at(Vec3::splat(1e-4)), lit), (&at(Vec3::splat(2e-3)), lit)],
         &r
     ));
 }
@@ -445,7 +432,6 @@ fn texture_alone_separates_texels_from_light() {
         Sample {
             pos: Vec2::ZERO,
             value,
-            display: display(value, 0.0),
             object,
             level: 0,
             rays: 0,
