@@ -29,9 +29,9 @@
 //! samples and its eight neighbours' stored samples differ by their texels alone
 //! (`texture_alone`: one object, a texture on the diffuse reflectance only, and the
 //! criteria quiet once every texel is set alike), its new samples take the light of its
-//! nearest sample ([`Lighting`]) and trace only their primary ray
-//! ([`Tracer::retextured`]); where the criteria are quiet on the diffuse light alone,
-//! they take that and trace the glossy and mirror parts anew (`SibQuery::given`).
+//! nearest sample ([`Lighting`], handed to the shading as `SibQuery::given`) and trace
+//! only their primary ray; where the criteria are quiet on the diffuse light alone,
+//! they take that and trace the glossy and mirror parts anew.
 //! Wooden staircase: 422 k + 257 k of 1.18 M anti-aliasing samples, render 6.7-7.1 ->
 //! 5.7-5.8 s, FLIP 0.0539 / 0.0546 -> 0.0546 / 0.0552.
 //!
@@ -55,7 +55,7 @@ use rayon::prelude::*;
 
 use super::counters::{Counters, LevelStats};
 use super::film::film_rows;
-use super::sib::{self, Entry, Lighting, Neighbour, SibQuery, NO_OBJECT};
+use super::sib::{self, Entry, Given, Lighting, Neighbour, SibQuery, NO_OBJECT};
 use super::{FilmSample, Settings, Tracer};
 use crate::camera::Camera;
 use crate::image::{srgb_encode, Image};
@@ -733,29 +733,15 @@ impl LevelCtx<'_> {
                     let ray =
                         camera.ray_through_lens(t.pos.x, t.pos.y, uniform2(derive(t.seed, Stream::Lens)));
                     counters.primary_rays += 1;
-                    let from = read.samples.get(t.relight as usize);
-                    if t.takes == Takes::Diffuse {
-                        q.given = from.and_then(|f| Some((f.object, f.lighting?.per_albedo())));
-                    }
-                    if let Some(from) = from.filter(|_| t.takes == Takes::All) {
-                        let retextured = from.lighting.and_then(|l| {
-                            tracer.retextured(&ray, from.object, l.per_albedo(), from.value - l.diffuse())
-                        });
-                        if let Some((value, lighting)) = retextured {
-                            counters.retextured += 1;
-                            point_bits.extend_from_slice(read.point_bits(t.relight));
-                            samples.push(Sample {
-                                pos: t.pos,
-                                value,
-                                object: from.object,
-                                level: level as i8,
-                                rays: 0,
-                                saved: 0,
-                                lighting: Some(lighting),
-                            });
-                            continue;
-                        }
-                    }
+                    // A retextured sample: the light of the sample it takes it from.
+                    q.given = read.samples.get(t.relight as usize).and_then(|f| {
+                        let l = f.lighting?;
+                        Some(Given {
+                            object: f.object,
+                            per_albedo: l.per_albedo(),
+                            rest: (t.takes == Takes::All).then(|| f.value - l.diffuse()),
+                        })
+                    });
                     let (cast_before, saved_before) = (counters.shadow_rays, counters.shadow_rays_saved);
                     let value =
                         tracer.radiance_sib(&ray, derive(t.seed, Stream::Path), &mut counters, &mut q);

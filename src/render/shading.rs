@@ -214,18 +214,21 @@ impl<'a> Tracer<'a> {
             return l;
         }
         // A retextured sample's first hit on the object whose light it was given:
-        // that light through this hit's texel.
-        let given = sib
-            .as_ref()
-            .and_then(|q| q.given)
-            .filter(|&(object, _)| depth == 0 && object == hit.shape)
-            .filter(|_| l == Vec3::ZERO && Lighting::of(bsdf, &kind, Vec3::ONE).is_some());
-        if let Some((_, per_albedo)) = given {
+        // that light through this hit's texel, and the rest as given (nothing more is
+        // traced) or traced anew. Elsewhere (another object, another material) the
+        // sample is traced in full.
+        let given = sib.as_ref().and_then(|q| q.given).filter(|g| {
+            depth == 0 && g.object == hit.shape && l == Vec3::ZERO && Lighting::applies(bsdf, &kind)
+        });
+        if let Some(g) = given {
             counters.retextured += 1;
-            let diffuse = kind.diffuse_albedo() * per_albedo;
+            let diffuse = kind.diffuse_albedo() * g.per_albedo;
             l += diffuse;
             if let Some(q) = sib.as_deref_mut() {
                 q.lighting = Lighting::of(bsdf, &kind, diffuse);
+            }
+            if let Some(rest) = g.rest {
+                return l + rest;
             }
         } else if kind.has_diffuse() {
             counters.diffuse_hits += 1;
@@ -297,7 +300,7 @@ impl<'a> Tracer<'a> {
                 }
             };
             // What the texture multiplies, for the anti-aliasing samples that take
-            // this sample's light ([`Self::retextured`]).
+            // this sample's light (`SibQuery::given`).
             if let Some(q) = sib.filter(|_| depth == 0 && before == Vec3::ZERO) {
                 q.lighting = Lighting::of(bsdf, &kind, l);
             }
@@ -324,28 +327,6 @@ impl<'a> Tracer<'a> {
             }
         }
         l
-    }
-
-    /// Radiance along primary ray `ray` that meets object `object` where its texture
-    /// alone varies: the light of a sample near it, its diffuse light per unit albedo
-    /// `per_albedo` times this hit's own albedo, plus its other light `rest` (glossy,
-    /// mirror) as it was. No shadow, gather or glossy ray is cast. `None` where the ray meets
-    /// another object or a material whose light the texel does not scale alone (see
-    /// [`Lighting::of`]): the caller traces the sample in full.
-    pub fn retextured(&self, ray: &Ray, object: u32, per_albedo: Rgb, rest: Rgb) -> Option<(Rgb, Lighting)> {
-        let hit = self.accel.intersect(ray).filter(|h| h.shape == object)?;
-        let mut sp = SurfacePoint::new(self.scene, ray, &hit);
-        if let Some(scale) = self.pixel_scale {
-            sp = sp.with_footprint(scale.length(1.0, hit.t * ray.dir.length()));
-        }
-        let (bsdf, kind) = sp.material(self.scene);
-        if (!sp.front && !bsdf.twosided) || sp.ns.dot(-ray.dir) <= 0.0 {
-            return None;
-        }
-        let albedo = kind.diffuse_albedo();
-        let diffuse = albedo * per_albedo;
-        let lighting = Lighting::of(bsdf, &kind, diffuse)?;
-        Some((rest + diffuse, lighting))
     }
 
     /// What a glossy lobe at `sp` reflects towards `wo`: the lights by light
@@ -985,6 +966,7 @@ mod tests {
     /// in full within 0.2 %; kept as it was (no texel put in), they miss it by 40 %.
     #[test]
     fn a_retextured_hit_is_the_hit_traced_in_full_behind_a_nonlinear_coating() {
+        use crate::render::sib::Given;
         use crate::scene::texture::TexFilter;
         use crate::scene::{TexField, Texture};
         let mut mesh = square(10.0, 0.0, false);
@@ -1032,21 +1014,34 @@ mod tests {
             (la.albedo() - lb.albedo()).abs().max_element() > 0.1,
             "two stripes"
         );
+        // Ray b given a's light on `object`, with a's rest or without it (traced anew).
+        let given = |object: u32, rest: Option<Vec3>| {
+            let mut record = Vec::new();
+            let mut q = SibQuery::new(false, &[], &mut record);
+            q.given = Some(Given {
+                object,
+                per_albedo: la.per_albedo(),
+                rest,
+            });
+            let mut c = Counters::default();
+            let v = tracer.radiance_sib(&ray_b, 1, &mut c, &mut q);
+            (v, q.lighting, c)
+        };
         let rest = va - la.diffuse();
-        let (v, l) = tracer.retextured(&ray_b, 0, la.per_albedo(), rest).unwrap();
+        let (v, l, c) = given(0, Some(rest));
         assert!(((v - vb) / vb).abs().max_element() < 2e-3, "{v} against {vb}");
+        let l = l.unwrap();
         assert!(((l.albedo() - lb.albedo()) / lb.albedo()).abs().max_element() < 1e-3);
+        assert_eq!((c.retextured, c.diffuse_hits, c.reflection_rays), (1, 0, 0));
         assert!(((va - vb) / vb).abs().max_element() > 0.4, "{va} {vb}");
-        // Another object, or none: traced in full.
-        assert_eq!(tracer.retextured(&ray_b, 1, la.per_albedo(), rest), None);
         // Given the diffuse light alone, the glossy part traced anew: the same.
-        let mut record = Vec::new();
-        let mut q = SibQuery::new(false, &[], &mut record);
-        q.given = Some((0, la.per_albedo()));
-        let mut c = Counters::default();
-        let v = tracer.radiance_sib(&ray_b, 1, &mut c, &mut q);
+        let (v, _, c) = given(0, None);
         assert!(((v - vb) / vb).abs().max_element() < 2e-3, "{v} against {vb}");
         assert_eq!((c.retextured, c.diffuse_hits), (1, 0));
+        // Given the light of another object: traced in full.
+        let (v, _, c) = given(1, Some(rest));
+        assert_eq!(v, vb);
+        assert_eq!((c.retextured, c.diffuse_hits), (0, 1));
     }
 
     #[test]

@@ -150,10 +150,20 @@ pub struct SibQuery<'a> {
     /// Set by the shading: the first hit's diffuse light, where its texture alone
     /// scales it (see [`Lighting`]).
     pub lighting: Option<Lighting>,
-    /// Set by the sampler for a retextured sample that takes the diffuse light
-    /// alone: the object and the diffuse light per unit albedo a sample near it found
-    /// there; a first hit on that object takes it through its own texel.
-    pub given: Option<(u32, Rgb)>,
+    /// Set by the sampler for a retextured sample: the light a sample near it found;
+    /// a first hit on that object takes it through its own texel.
+    pub given: Option<Given>,
+}
+
+/// The light a retextured sample is given (see [`Lighting`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Given {
+    /// The object it was found on.
+    pub object: u32,
+    /// The diffuse light per unit albedo.
+    pub per_albedo: Rgb,
+    /// The rest of the light (glossy, mirror), if taken too; `None`: traced anew.
+    pub rest: Option<Rgb>,
 }
 
 impl<'a> SibQuery<'a> {
@@ -202,7 +212,14 @@ impl Lighting {
     /// mask, blend weight or specular texture), and an albedo above 0 in every
     /// channel (a black texel scales nothing back).
     pub fn of(bsdf: &Bsdf, kind: &BsdfKind, diffuse: Rgb) -> Option<Lighting> {
-        let modulated = !bsdf.textures.is_empty()
+        Lighting::applies(bsdf, kind).then(|| Lighting::new(kind.diffuse_albedo(), diffuse))?
+    }
+
+    /// Whether the texture alone scales the diffuse light at a hit on `bsdf` (of
+    /// model `kind` there): textures on the diffuse reflectance only, of a diffuse or
+    /// (rough) plastic model.
+    pub fn applies(bsdf: &Bsdf, kind: &BsdfKind) -> bool {
+        !bsdf.textures.is_empty()
             && bsdf
                 .textures
                 .iter()
@@ -210,8 +227,7 @@ impl Lighting {
             && matches!(
                 kind,
                 BsdfKind::Diffuse { .. } | BsdfKind::Plastic { .. } | BsdfKind::RoughPlastic { .. }
-            );
-        modulated.then(|| Lighting::new(kind.diffuse_albedo(), diffuse))?
+            )
     }
 
     /// Albedo `albedo` and diffuse light `diffuse`, if half floats hold them (the
