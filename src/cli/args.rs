@@ -408,11 +408,13 @@ pub struct RenderArgs {
     /// sampled picture) [default: on for local and global, off otherwise].
     #[arg(long, value_enum)]
     pub(super) sib: Option<OnOff>,
-    /// Retextured anti-aliasing samples: `on`, where a pixel is refined only because
-    /// a texture varies across it (its samples' light agrees once their texels are
-    /// set alike), its new samples take the light of its nearest sample and look up
-    /// only their own texel (where only its glossy part differs, they take the diffuse
-    /// light and trace the glossy part anew); `off` traces every sample in full.
+    /// Retextured anti-aliasing samples: `on`, where a refined pixel's samples on an
+    /// object (with its neighbours' there) agree on their light once their texels are
+    /// set alike (a texture varies, or an object's edge crosses the pixel), its new
+    /// samples that hit that object facing the same way take the light of its nearest
+    /// sample there and look up only their own texel (where only the glossy part
+    /// differs, they take the diffuse light and trace the glossy part anew); `off`
+    /// traces every sample in full.
     #[arg(long, value_enum, default_value = "on")]
     pub(super) retexture: OnOff,
     /// Write pictures of the method to this folder: the shadow image of each

@@ -26,14 +26,21 @@
 //!   0.0540 / 0.0546; the conference room's 5.0 M -> 3.8 M, render 2.84 -> 2.66 s.
 //!
 //! Retextured samples (not in the paper; `Refine::retexture`): where a refined pixel's
-//! samples and its eight neighbours' stored samples differ by their texels alone
-//! (`texture_alone`: one object, a texture on the diffuse reflectance only, and the
-//! criteria quiet once every texel is set alike), its new samples take the light of its
-//! nearest sample ([`Lighting`], handed to the shading as `SibQuery::given`) and trace
+//! samples on one object, with its eight neighbours' stored samples there, differ by
+//! their texels alone (`texture_alone`: a diffuse or plastic model, untextured or
+//! textured on its diffuse reflectance only, and the criteria quiet once every texel
+//! is set alike), its new samples that hit that object take the light of its nearest
+//! sample there ([`Lighting`], handed to the shading as `SibQuery::given`) and trace
 //! only their primary ray; where the criteria are quiet on the diffuse light alone,
-//! they take that and trace the glossy and mirror parts anew.
-//! Wooden staircase: 422 k + 257 k of 1.18 M anti-aliasing samples, render 6.7-7.1 ->
-//! 5.7-5.8 s, FLIP 0.0539 / 0.0546 -> 0.0546 / 0.0552.
+//! they take that and trace the glossy and mirror parts anew. Each of the first two
+//! objects of a pixel is judged alone (`relightable`), so a pixel across an object's
+//! edge, refined for its coverage, traces in full only the samples on a side whose
+//! light varies; a hit whose surface faces another way than where the light was found
+//! traces in full too ([`sib::NORMAL_AGREES`]: a box's side takes nothing from its
+//! top). Wooden staircase: textures alone, 422 k + 257 k of 1.18 M anti-aliasing
+//! samples, render 6.7-7.1 -> 5.7-5.8 s, FLIP 0.0539 / 0.0546 -> 0.0546 / 0.0552;
+//! with edges and untextured surfaces too, 898 k, render 5.25 -> 4.71 s, FLIP 0.0548
+//! / 0.0554.
 //!
 //! Refinement criteria (Sect. 6): *object* (samples hit different objects), *shadow*
 //! (a real point light is lit at one sample and shadowed at the other, read from the
@@ -217,11 +224,14 @@ struct Task {
     neighbours: [u32; 4],
     /// Which of its pixel's new samples at an anti-aliasing level it is.
     stratum: Stratum,
-    /// The sample whose light it takes, retextured, or [`NONE`]: traced in full.
-    relight: u32,
-    /// What it takes from that sample.
-    takes: Takes,
+    /// Per object its pixel's samples hit (up to two), the sample whose light it
+    /// takes on a hit there, retextured, and what it takes; [`NO_RELIGHT`]: traced
+    /// in full.
+    relight: [(u32, Takes); 2],
 }
+
+/// A task that takes no sample's light.
+const NO_RELIGHT: [(u32, Takes); 2] = [(NONE, Takes::Nothing); 2];
 
 /// What a retextured sample takes from the sample near it, its own texel put in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -350,8 +360,7 @@ pub fn render_adaptive(
                 seed,
                 neighbours: [NONE; 4],
                 stratum: Stratum::WHOLE,
-                relight: NONE,
-                takes: Takes::Nothing,
+                relight: NO_RELIGHT,
             }
         })
         .collect();
@@ -373,8 +382,7 @@ pub fn render_adaptive(
                 seed,
                 neighbours: four_from(bx, by, bw, bh, |bx, by| block_first + by * bw + bx),
                 stratum: Stratum::WHOLE,
-                relight: NONE,
-                takes: Takes::Nothing,
+                relight: NO_RELIGHT,
             }
         })
         .collect();
@@ -414,19 +422,22 @@ pub fn render_adaptive(
             .par_iter()
             .flat_map_iter(|&p| {
                 let (x, y) = (p % w, p / w);
-                // Where this pixel's samples and its neighbours' stored ones differ
-                // by their texels alone, the new ones take their light and look up
-                // only their own texel.
+                // Where this pixel's samples and its neighbours' stored ones on one
+                // object differ by their texels alone, the new ones that hit that
+                // object take their light and look up only their own texel.
                 let takes = match refine.retexture {
-                    false => Takes::Nothing,
-                    true => texture_alone(
-                        (y.saturating_sub(1)..=(y + 1).min(h - 1))
+                    false => [(NO_OBJECT, Takes::Nothing); 2],
+                    true => {
+                        let own: Vec<_> = set.pixel(p).iter().map(|&i| set.with_bits(i)).collect();
+                        let around: Vec<_> = (y.saturating_sub(1)..=(y + 1).min(h - 1))
                             .flat_map(|ny| {
-                                (x.saturating_sub(1)..=(x + 1).min(w - 1)).map(move |nx| stored(nx, ny))
+                                (x.saturating_sub(1)..=(x + 1).min(w - 1))
+                                    .filter(move |&nx| (nx, ny) != (x, y))
+                                    .map(move |nx| stored(nx, ny))
                             })
-                            .chain(set.pixel(p).iter().map(|&i| set.with_bits(i))),
-                        refine,
-                    ),
+                            .collect();
+                        relightable(&own, &around, refine)
+                    }
                 };
                 let mut taken = vec![false; (cells * cells) as usize];
                 for &i in set.pixel(p) {
@@ -448,11 +459,11 @@ pub fn render_adaptive(
                         Vec2::splat(size),
                         jitter(seed),
                     );
-                    // The pixel's nearest sample lends its light.
-                    let relight = match takes {
-                        Takes::Nothing => NONE,
-                        _ => nearest_in(set, p, pos),
-                    };
+                    // The pixel's nearest sample on each such object lends its light.
+                    let relight = takes.map(|(object, takes)| match takes {
+                        Takes::Nothing => (NONE, Takes::Nothing),
+                        _ => (nearest_in(set, p, pos, object), takes),
+                    });
                     Task {
                         pos,
                         seed,
@@ -462,7 +473,6 @@ pub fn render_adaptive(
                             count,
                         },
                         relight,
-                        takes,
                     }
                 })
             })
@@ -500,16 +510,59 @@ fn in_cell(origin: Vec2, size: Vec2, jitter: Vec2) -> Vec2 {
     Vec2::new(inside(origin.x, hi.x, p.x), inside(origin.y, hi.y, p.y))
 }
 
-/// The sample of pixel `p` nearest to `pos`.
-fn nearest_in(set: &SampleSet, p: u32, pos: Vec2) -> u32 {
+/// The sample of pixel `p` on `object` nearest to `pos`.
+fn nearest_in(set: &SampleSet, p: u32, pos: Vec2, object: u32) -> u32 {
     set.pixel(p)
         .iter()
         .copied()
+        .filter(|&i| set.samples[i as usize].object == object)
         .min_by(|&a, &b| {
             let d = |i: u32| set.samples[i as usize].pos.distance_squared(pos);
             d(a).total_cmp(&d(b))
         })
         .unwrap_or(NONE)
+}
+
+/// Samples of one object fewer than this, in a pixel and around it, are too few to
+/// tell its light from its texels: a pixel's samples across an object's edge hand
+/// their light on only where the object holds this many.
+const GROUP_SAMPLES: usize = 3;
+
+/// For each object (the first two) among a refined pixel's samples `own`: whether
+/// its samples there and among `around` (the neighbours' stored samples) differ by
+/// their texels alone ([`texture_alone`]), if they are at least [`GROUP_SAMPLES`].
+/// Across an object's edge, each side's light is judged on its own: the object
+/// criterion refines the edge for its coverage, and the new samples that hit a side
+/// whose light agrees take it.
+fn relightable(
+    own: &[(&Sample, &[u64])],
+    around: &[(&Sample, &[u64])],
+    refine: &Refine,
+) -> [(u32, Takes); 2] {
+    let mut out = [(NO_OBJECT, Takes::Nothing); 2];
+    let mut k = 0;
+    for (i, (s, _)) in own.iter().enumerate() {
+        if k == out.len() {
+            break;
+        }
+        let object = s.object;
+        if object == NO_OBJECT || own[..i].iter().any(|(f, _)| f.object == object) {
+            continue;
+        }
+        let group = || {
+            own.iter()
+                .chain(around)
+                .filter(|(s, _)| s.object == object)
+                .copied()
+        };
+        let takes = match group().count() >= GROUP_SAMPLES {
+            true => texture_alone(group(), refine),
+            false => Takes::Nothing,
+        };
+        out[k] = (object, takes);
+        k += 1;
+    }
+    out
 }
 
 /// Whether `samples` (each with its point bits) differ by their texels alone: all on
@@ -733,13 +786,15 @@ impl LevelCtx<'_> {
                     let ray =
                         camera.ray_through_lens(t.pos.x, t.pos.y, uniform2(derive(t.seed, Stream::Lens)));
                     counters.primary_rays += 1;
-                    // A retextured sample: the light of the sample it takes it from.
-                    q.given = read.samples.get(t.relight as usize).and_then(|f| {
+                    // A retextured sample: the light of the samples it takes it from.
+                    q.given = t.relight.map(|(i, takes)| {
+                        let f = read.samples.get(i as usize)?;
                         let l = f.lighting?;
                         Some(Given {
                             object: f.object,
                             per_albedo: l.per_albedo(),
-                            rest: (t.takes == Takes::All).then(|| f.value - l.diffuse()),
+                            normal: l.normal(),
+                            rest: (takes == Takes::All).then(|| f.value - l.diffuse()),
                         })
                     });
                     let (cast_before, saved_before) = (counters.shadow_rays, counters.shadow_rays_saved);

@@ -150,9 +150,10 @@ pub struct SibQuery<'a> {
     /// Set by the shading: the first hit's diffuse light, where its texture alone
     /// scales it (see [`Lighting`]).
     pub lighting: Option<Lighting>,
-    /// Set by the sampler for a retextured sample: the light a sample near it found;
-    /// a first hit on that object takes it through its own texel.
-    pub given: Option<Given>,
+    /// Set by the sampler for a retextured sample: the light samples near it found,
+    /// on up to two objects (a pixel across an object's edge); a first hit on one of
+    /// those objects, facing the same way, takes it through its own texel.
+    pub given: [Option<Given>; 2],
 }
 
 /// The light a retextured sample is given (see [`Lighting`]).
@@ -162,6 +163,8 @@ pub struct Given {
     pub object: u32,
     /// The diffuse light per unit albedo.
     pub per_albedo: Rgb,
+    /// The shading normal where it was found.
+    pub normal: Vec3,
     /// The rest of the light (glossy, mirror), if taken too; `None`: traced anew.
     pub rest: Option<Rgb>,
 }
@@ -178,7 +181,7 @@ impl<'a> SibQuery<'a> {
             ray_divisor: 1,
             stratum: Stratum::WHOLE,
             lighting: None,
-            given: None,
+            given: [None; 2],
         }
     }
 
@@ -204,39 +207,50 @@ pub struct Lighting {
     albedo: [f16; 3],
     /// The diffuse light per unit albedo.
     per_albedo: [f16; 3],
+    /// The shading normal at the hit, each coordinate in 1/127ths.
+    normal: [i8; 3],
 }
 
+/// A kept light is given only to a hit whose shading normal is within this cosine
+/// (about 11 degrees) of the normal it was found at: the light of a surface turned
+/// another way (the other face of a box, a slab's edge) is another light, which the
+/// samples that agreed on it need not have seen.
+pub const NORMAL_AGREES: f32 = 0.98;
+
 impl Lighting {
-    /// The diffuse part `diffuse` at a hit on `bsdf` (of model `kind` there), if its
-    /// texture alone scales it: textures on the diffuse reflectance only (no bump,
-    /// mask, blend weight or specular texture), and an albedo above 0 in every
-    /// channel (a black texel scales nothing back).
-    pub fn of(bsdf: &Bsdf, kind: &BsdfKind, diffuse: Rgb) -> Option<Lighting> {
-        Lighting::applies(bsdf, kind).then(|| Lighting::new(kind.diffuse_albedo(), diffuse))?
+    /// The diffuse part `diffuse` at a hit on `bsdf` (of model `kind` there, shading
+    /// normal `normal`), if its texture alone scales it: no texture, or textures on
+    /// the diffuse reflectance only (no bump, mask, blend weight or specular
+    /// texture), and an albedo above 0 in every channel (a black texel scales nothing
+    /// back).
+    pub fn of(bsdf: &Bsdf, kind: &BsdfKind, diffuse: Rgb, normal: Vec3) -> Option<Lighting> {
+        Lighting::applies(bsdf, kind).then(|| Lighting::new(kind.diffuse_albedo(), diffuse, normal))?
     }
 
     /// Whether the texture alone scales the diffuse light at a hit on `bsdf` (of
-    /// model `kind` there): textures on the diffuse reflectance only, of a diffuse or
-    /// (rough) plastic model.
+    /// model `kind` there): no texture, or textures on the diffuse reflectance only,
+    /// of a diffuse or (rough) plastic model.
     pub fn applies(bsdf: &Bsdf, kind: &BsdfKind) -> bool {
-        !bsdf.textures.is_empty()
-            && bsdf
-                .textures
-                .iter()
-                .all(|t| t.field == TexField::Diffuse && t.path.is_empty())
+        bsdf.textures
+            .iter()
+            .all(|t| t.field == TexField::Diffuse && t.path.is_empty())
             && matches!(
                 kind,
                 BsdfKind::Diffuse { .. } | BsdfKind::Plastic { .. } | BsdfKind::RoughPlastic { .. }
             )
     }
 
-    /// Albedo `albedo` and diffuse light `diffuse`, if half floats hold them (the
-    /// albedo above 0 in every channel, the light per unit albedo finite).
-    pub fn new(albedo: Rgb, diffuse: Rgb) -> Option<Lighting> {
+    /// Albedo `albedo` and diffuse light `diffuse` at shading normal `normal` (unit),
+    /// if half floats hold them (the albedo above 0 in every channel, the light per
+    /// unit albedo finite).
+    pub fn new(albedo: Rgb, diffuse: Rgb, normal: Vec3) -> Option<Lighting> {
         let half = |v: Rgb| v.to_array().map(f16::from_f32);
         let l = Lighting {
             albedo: half(albedo),
             per_albedo: half(diffuse / albedo),
+            normal: normal
+                .to_array()
+                .map(|c| (c.clamp(-1.0, 1.0) * 127.0).round() as i8),
         };
         (l.albedo().min_element() > 0.0 && l.per_albedo().is_finite()).then_some(l)
     }
@@ -249,6 +263,11 @@ impl Lighting {
     /// The diffuse light per unit albedo.
     pub fn per_albedo(&self) -> Rgb {
         Vec3::from_array(self.per_albedo.map(f16::to_f32))
+    }
+
+    /// The shading normal at the hit (unit, within 0.5 degrees).
+    pub fn normal(&self) -> Vec3 {
+        Vec3::from_array(self.normal.map(|c| f32::from(c) / 127.0)).normalize_or_zero()
     }
 
     /// The diffuse part of the radiance.
@@ -281,8 +300,9 @@ pub fn point_bits(record: &[Entry], slot: &[Option<u32>], out: &mut [u64]) {
 mod tests {
     use super::*;
 
-    /// Only a texture on the diffuse reflectance, of a diffuse or plastic model, with
-    /// every channel above 0, scales the diffuse light alone.
+    /// No texture, or only a texture on the diffuse reflectance, of a diffuse or
+    /// plastic model, with every channel above 0, scales the diffuse light alone; the
+    /// normal is kept within half a degree.
     #[test]
     fn lighting_is_kept_where_the_texel_alone_scales_the_diffuse_light() {
         use crate::testutil::slot;
@@ -295,14 +315,22 @@ mod tests {
             textures: fields.iter().map(|&f| slot(f, 0)).collect(),
         };
         let light = glam::Vec3::new(0.1, 0.2, 0.3);
-        let l = Lighting::of(&bsdf(&[TexField::Diffuse]), &diffuse, light * rho).unwrap();
+        let n = glam::Vec3::new(0.36, -0.48, 0.8);
+        let l = Lighting::of(&bsdf(&[TexField::Diffuse]), &diffuse, light * rho, n).unwrap();
         // Within half floats' rounding.
         assert!(((l.per_albedo() - light) / light).abs().max_element() < 1e-3);
         assert!(((l.albedo() - rho) / rho).abs().max_element() < 1e-3);
         assert!(((l.diffuse() - light * rho) / (light * rho)).abs().max_element() < 2e-3);
+        assert!(l.normal().dot(n) > 0.99996, "{}", l.normal());
         // Light past what half floats hold is not kept.
-        assert_eq!(Lighting::new(rho, glam::Vec3::splat(1e6)), None);
-        assert_eq!(Lighting::of(&bsdf(&[]), &diffuse, light), None, "untextured");
+        assert_eq!(Lighting::new(rho, glam::Vec3::splat(1e6), n), None);
+        let plain = Lighting::of(&bsdf(&[]), &diffuse, light * rho, n).expect("untextured");
+        assert!(((plain.per_albedo() - light) / light).abs().max_element() < 1e-3);
+        let mirror = BsdfKind::Conductor {
+            specular_reflectance: glam::Vec3::ONE,
+            fresnel: crate::scene::Fresnel::Schlick { f0: glam::Vec3::ONE },
+        };
+        assert_eq!(Lighting::of(&bsdf(&[]), &mirror, light, n), None, "a metal");
         for other in [
             TexField::Bump,
             TexField::Normal,
@@ -310,16 +338,16 @@ mod tests {
             TexField::Specular,
         ] {
             let b = bsdf(&[TexField::Diffuse, other]);
-            assert_eq!(Lighting::of(&b, &diffuse, light), None, "{other:?}");
+            assert_eq!(Lighting::of(&b, &diffuse, light, n), None, "{other:?}");
         }
         let mut blended = bsdf(&[TexField::Diffuse]);
         blended.textures[0].path = vec![true];
-        assert_eq!(Lighting::of(&blended, &diffuse, light), None, "inside a blend");
+        assert_eq!(Lighting::of(&blended, &diffuse, light, n), None, "inside a blend");
         let black = BsdfKind::Diffuse {
             reflectance: glam::Vec3::new(0.5, 0.0, 0.3),
         };
         assert_eq!(
-            Lighting::of(&bsdf(&[TexField::Diffuse]), &black, light),
+            Lighting::of(&bsdf(&[TexField::Diffuse]), &black, light, n),
             None,
             "black channel"
         );
