@@ -352,6 +352,35 @@ fn textured_floor(w: u32, h: u32) -> Scene {
     s
 }
 
+/// `sc` rendered at `w` x `h` with every sample traced in full and with retextured
+/// samples, and the settings of the second.
+fn full_and_retextured(sc: &Scene, w: u32, h: u32) -> (AdaptiveOutput, AdaptiveOutput, Settings) {
+    let full = settings(w, h, true);
+    let mut st = full.clone();
+    st.refine.retexture = true;
+    let (a, b) = (run(sc, &full), run(sc, &st));
+    assert_eq!(a.counters.retextured, 0);
+    (a, b, st)
+}
+
+/// Between two renders' pixels (box filter), relative to `a`'s: the largest where
+/// both refined the pixel to the same level, the mean over all, and how many pixels
+/// were refined to another level (where the sampling of the pixel differs).
+fn pixel_differences(a: &AdaptiveOutput, b: &AdaptiveOutput) -> (f32, f32, u32) {
+    let (ia, ib) = (a.set.reconstruct(Filter::Box), b.set.reconstruct(Filter::Box));
+    let (mut worst, mut mean, mut other_level) = (0.0f32, 0.0f32, 0);
+    for (k, (p, q)) in ia.pixels.iter().zip(&ib.pixels).enumerate() {
+        let d = ((*p - *q).abs() / p.max(Vec3::splat(0.01))).max_element();
+        mean += d / ia.pixels.len() as f32;
+        if a.set.pixel(k as u32).len() == b.set.pixel(k as u32).len() {
+            worst = worst.max(d);
+        } else {
+            other_level += 1;
+        }
+    }
+    (worst, mean, other_level)
+}
+
 /// Where only the floor's texels vary, anti-aliasing samples take their pixel's light
 /// and look up their own texel; the picture is the one traced in full, within the
 /// point light's change across a pixel, and the pixels on and beside the shadow edge
@@ -360,11 +389,7 @@ fn textured_floor(w: u32, h: u32) -> Scene {
 fn retextured_samples_keep_the_picture_where_only_a_texture_varies() {
     let (w, h) = (40, 40);
     let sc = textured_floor(w, h);
-    let full = settings(w, h, true);
-    let mut st = full.clone();
-    st.refine.retexture = true;
-    let (a, b) = (run(&sc, &full), run(&sc, &st));
-    assert_eq!(a.counters.retextured, 0);
+    let (a, b, st) = full_and_retextured(&sc, w, h);
     let aa = b.set.samples.iter().filter(|s| s.level >= 1).count() as u64;
     assert!(
         b.counters.retextured > aa / 2 && b.counters.retextured < aa,
@@ -399,17 +424,7 @@ fn retextured_samples_keep_the_picture_where_only_a_texture_varies() {
     // corners; 0.27 % on the mean here, 1.3 % at worst). A pixel refined to another
     // level (the criteria compare values that moved by that much) differs by the
     // sampling of its texels.
-    let (ia, ib) = (a.set.reconstruct(Filter::Box), b.set.reconstruct(Filter::Box));
-    let (mut worst, mut mean, mut other_level) = (0.0f32, 0.0f32, 0);
-    for (k, (p, q)) in ia.pixels.iter().zip(&ib.pixels).enumerate() {
-        let d = ((*p - *q).abs() / p.max(Vec3::splat(0.01))).max_element();
-        mean += d / (w * h) as f32;
-        if a.set.pixel(k as u32).len() == b.set.pixel(k as u32).len() {
-            worst = worst.max(d);
-        } else {
-            other_level += 1;
-        }
-    }
+    let (worst, mean, other_level) = pixel_differences(&a, &b);
     assert!(worst < 0.02, "worst relative difference {worst}");
     assert!(mean < 0.004, "mean relative difference {mean}");
     assert!(
@@ -456,11 +471,7 @@ fn box_on_floor(w: u32, h: u32) -> Scene {
 fn samples_across_an_edge_take_the_light_of_the_object_they_hit() {
     let (w, h) = (48, 40);
     let sc = box_on_floor(w, h);
-    let full = settings(w, h, true);
-    let mut st = full.clone();
-    st.refine.retexture = true;
-    let (a, b) = (run(&sc, &full), run(&sc, &st));
-    assert_eq!(a.counters.retextured, 0);
+    let (a, b, _) = full_and_retextured(&sc, w, h);
     // The refined pixels are the box's outline and its shadow's edge.
     let aa = b.set.samples.iter().filter(|s| s.level >= 1).count() as u64;
     assert!(aa > 1000, "{aa}");
@@ -470,17 +481,7 @@ fn samples_across_an_edge_take_the_light_of_the_object_they_hit() {
         b.counters.retextured
     );
     // Pixel by pixel, within the point light's change across a pixel.
-    let (ia, ib) = (a.set.reconstruct(Filter::Box), b.set.reconstruct(Filter::Box));
-    let (mut worst, mut mean, mut other_level) = (0.0f32, 0.0f32, 0);
-    for (k, (p, q)) in ia.pixels.iter().zip(&ib.pixels).enumerate() {
-        let d = ((*p - *q).abs() / p.max(Vec3::splat(0.01))).max_element();
-        mean += d / (w * h) as f32;
-        if a.set.pixel(k as u32).len() == b.set.pixel(k as u32).len() {
-            worst = worst.max(d);
-        } else {
-            other_level += 1;
-        }
-    }
+    let (worst, mean, other_level) = pixel_differences(&a, &b);
     // In pixels across the outline, floor samples took light (202 in 34 pixels
     // here; a floor sample traced casts or saves a ray to the light above it).
     let across = (0..w * h)
