@@ -663,20 +663,25 @@ where
     let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
     // Radiance, where the display values are white: the brightest sample's and the
     // dimmest's (largest channel).
-    let (mut dim, mut bright, mut white) = (f32::INFINITY, 0.0f32, false);
+    let (mut dim, mut bright) = (f32::INFINITY, 0.0f32);
     for (s, bits) in samples.clone() {
         if *object.get_or_insert(s.object) != s.object {
             return true;
         }
         words = bits.len() / 2;
-        let shown = display(s.value, refine.exposure);
+        let shown = exposed(s.value, refine.exposure);
         lo = lo.min(shown);
         hi = hi.max(shown);
         let v = s.value.max_element();
         dim = dim.min(v);
         bright = bright.max(v);
-        white |= shown.max_element() >= 1.0;
     }
+    // The display's encoding rises with the radiance, so the lowest and highest
+    // display values per channel are those of the lowest and highest radiance: two
+    // encodings per comparison, not one per sample (level 1 compares every pixel
+    // with its eight neighbours).
+    let (lo, hi) = (encode(lo), encode(hi));
+    let white = hi.max_element() >= 1.0;
     // Among samples white on the display, one many times brighter than another: a
     // light's image smaller than the pixel (the sun in a mirror ball), which one
     // sample would otherwise carry to the whole pixel.
@@ -694,11 +699,15 @@ where
     }) || (hi - lo).max_element() > refine.contrast
 }
 
-/// The display value of radiance `v` with `exposure` stops: sRGB-encoded, clipped to
-/// 0..1.
-fn display(v: Rgb, exposure: f32) -> Vec3 {
+/// Radiance `v` with `exposure` stops, clipped to 0..1: what the display encodes.
+fn exposed(v: Rgb, exposure: f32) -> Vec3 {
     let v = if exposure == 0.0 { v } else { v * exposure.exp2() };
-    Vec3::from_array(v.clamp(Vec3::ZERO, Vec3::ONE).to_array().map(srgb_encode))
+    v.clamp(Vec3::ZERO, Vec3::ONE)
+}
+
+/// The display (sRGB) encoding of exposed radiance `v`.
+fn encode(v: Vec3) -> Vec3 {
+    Vec3::from_array(v.to_array().map(srgb_encode))
 }
 
 /// The samples of one work item of a level, with their SIB records (record lengths
