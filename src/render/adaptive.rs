@@ -262,8 +262,9 @@ pub struct Refine {
     pub exposure: f32,
     /// Whether the SIB's neighbours are reused (off: every shadow ray is cast).
     pub sib: bool,
-    /// Whether anti-aliasing samples where only a texture varies take their light
-    /// from the pixel's nearest sample and look up only their own texel.
+    /// Whether anti-aliasing samples on an object whose light agrees across their
+    /// pixel (only its texture varies, or an object's edge crosses the pixel) take
+    /// the light of the pixel's nearest sample on it and look up only their own texel.
     pub retexture: bool,
 }
 

@@ -232,7 +232,7 @@ impl<'a> Tracer<'a> {
             let diffuse = kind.diffuse_albedo() * g.per_albedo;
             l += diffuse;
             if let Some(q) = sib.as_deref_mut() {
-                q.lighting = Lighting::of(bsdf, &kind, diffuse, sp.ns);
+                q.lighting = Lighting::new(kind.diffuse_albedo(), diffuse, sp.ns);
             }
             if let Some(rest) = g.rest {
                 return l + rest;
@@ -961,10 +961,6 @@ mod tests {
         (tracer.radiance(&ray, 0, 1, &mut c), c)
     }
 
-    /// A rough conductor floor under a point light, nothing else: the radiance seen
-    /// straight down is the lobe's BRDF times I / r^2 times the cosine (Mitsuba's
-    /// roughconductor, closed form), by one shadow ray; with the light beside a
-    /// blocker, none. The drawn rays meet nothing, so bring nothing.
     /// A retextured hit is the hit traced in full: a floor of Mitsuba's nonlinear
     /// rough plastic (whose base is not linear in the texel, but whose diffuse light
     /// is linear in the diffuse albedo the shading keeps) in stripes of two colours,
@@ -1063,6 +1059,10 @@ mod tests {
         assert_eq!(given(0, Some(rest), near).2.retextured, 1);
     }
 
+    /// A rough conductor floor under a point light, nothing else: the radiance seen
+    /// straight down is the lobe's BRDF times I / r^2 times the cosine (Mitsuba's
+    /// roughconductor, closed form), by one shadow ray; with the light beside a
+    /// blocker, none. The drawn rays meet nothing, so bring nothing.
     #[test]
     fn a_glossy_floor_reflects_a_point_light_by_its_lobe() {
         let lobe = rough_silver(0.9);
