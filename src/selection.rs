@@ -513,6 +513,14 @@ pub fn judge(j: &Judge, p: u32, entry: &ListEntry, tris: &Subtense, points: &Fal
     // (a small sphere's top under a lamp comes out 5-8% dark): a source whose
     // unoccluded light varies by more than CURVED_SPREAD over such a patch passes too.
     let bends = mp.surface().is_some_and(|s| s.bends());
+    // A bump or normal map turns the shading normal within every element, which the
+    // solution's light at the vertices (found at the flat surface's normal) cannot
+    // show: a light that can be ray traced at all is, so the bumps show in its light
+    // as in Mitsuba's picture (they were flat before).
+    let shape = &scene.shapes[mp.shape as usize];
+    if scene.bsdfs[shape.bsdf as usize].bumped() {
+        c.gradient = true;
+    }
     if !c.gradient && bends {
         let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
         for u in &entry.unoccluded {

@@ -127,6 +127,11 @@ const MAX_MIRRORS: u32 = 4;
 /// pixels instead of 8, for 0.8 s more render than no gather.)
 const ACCURACY: f32 = 0.5;
 
+/// How much more a turn of the normal counts against reusing a record where a bump
+/// or normal map tilts it: the terminator term and the surface's own horizon cut the
+/// tilted normal's light off faster than the records' rotation gradients follow.
+const BUMPED_TURN: f32 = 4.0;
+
 /// A finished gather at one point: irradiance of the light it replaces, valid within
 /// `radius`.
 #[derive(Debug, Clone, Copy)]
@@ -468,7 +473,13 @@ impl Gather {
                 if r.patch != patch || d2 >= reach * reach {
                     continue;
                 }
-                let err = d2.sqrt() / r.radius + (1.0 - sp.ns.dot(r.n)).max(0.0).sqrt();
+                let turn = (1.0 - sp.ns.dot(r.n)).max(0.0).sqrt();
+                let err = d2.sqrt() / r.radius
+                    + if sp.ns == sp.flat {
+                        turn
+                    } else {
+                        BUMPED_TURN * turn
+                    };
                 let w = 1.0 - err / ACCURACY;
                 if w > 0.0 {
                     sum += r.at(sp.p, sp.ns) * w;
@@ -550,7 +561,7 @@ impl Gather {
                     continue;
                 }
                 let (v, d) = self.read(ctx, sp, dir, (traced, skies), (seed, k), counters);
-                let w = coat.as_ref().map_or(1.0, |c| c.at(dir.dot(sp.ns)));
+                let w = coat.as_ref().map_or(1.0, |c| c.at(dir.dot(sp.ns))) * sp.terminator(dir);
                 (value[k as usize], dist[k as usize]) = (v * w, d);
             }
         }

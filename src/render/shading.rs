@@ -196,7 +196,7 @@ impl<'a> Tracer<'a> {
             // Through a mask's open part, as if the surface were not there.
             return self.trace(&through, depth, on, counters, sib, emit);
         }
-        let sp = sp.bumped(self.scene, bsdf);
+        let sp = sp.bumped(self.scene, bsdf, -ray.dir);
         if kind.is_glass() {
             if let Some(rough) = self.rough_glass(&kind, &sp, ray, depth, seed, counters) {
                 return l + rough;
@@ -278,8 +278,13 @@ impl<'a> Tracer<'a> {
                                 parted: self.parted.as_ref(),
                             };
                             let stratum = sib.as_ref().map_or(Stratum::WHOLE, |q| q.stratum);
+                            // On a bumped surface the gather's rays find how the
+                            // tilted normal sees the room (weighed by the terminator
+                            // term); the solution's light kept beside them, found at
+                            // the untilted normal, is taken as arriving evenly
+                            // (`hemisphere_share`).
                             let e = g.irradiance(&ctx, &sp, patch, seed, stratum, counters);
-                            let mut sum = (g.kept(&interp) * textured * seen
+                            let mut sum = (g.kept(&interp) * textured * seen * sp.hemisphere_share()
                                 + kind.diffuse_albedo_at(cos_v) * e)
                                 * std::f32::consts::FRAC_1_PI;
                             for &l in g.folded(patch) {
@@ -298,7 +303,12 @@ impl<'a> Tracer<'a> {
                             }
                             sum
                         }
-                        _ => interp.apply(&selection.stored) * textured * seen * std::f32::consts::FRAC_1_PI,
+                        _ => {
+                            interp.apply(&selection.stored)
+                                * textured
+                                * seen
+                                * (std::f32::consts::FRAC_1_PI * sp.hemisphere_share())
+                        }
                     };
                     for pick in selection.picks(patch) {
                         sum += self.sample_source(*pick, &shade, counters, sib.as_deref_mut(), usable);
@@ -322,14 +332,16 @@ impl<'a> Tracer<'a> {
                 if dir.dot(sp.ng) > 0.0 {
                     counters.reflection_rays += 1;
                     let refl = sp.spawn(dir, f32::INFINITY);
-                    l += m * self.trace(
-                        &refl,
-                        depth + 1,
-                        derive(seed, Stream::Reflection),
-                        counters,
-                        None,
-                        true,
-                    );
+                    l += m
+                        * sp.terminator(dir)
+                        * self.trace(
+                            &refl,
+                            depth + 1,
+                            derive(seed, Stream::Reflection),
+                            counters,
+                            None,
+                            true,
+                        );
                 }
             }
         }
@@ -391,7 +403,7 @@ impl<'a> Tracer<'a> {
                 let r = samples(&lights[li as usize]) as f32;
                 got += le * power_heuristic(n as f32 * p_b, r * p_l);
             }
-            l += w * got / n as f32;
+            l += w * got * (sp.terminator(wi) / n as f32);
         }
         // The light samples' BSDF and the lobe's density towards them (the sky's light
         // is left to the lobe's rays).
@@ -401,7 +413,7 @@ impl<'a> Tracer<'a> {
             }
             let wi_l = frame.local(dir);
             let (f, pdf) = lobe.eval_pdf(wi_l, wo_l);
-            Some((f, n as f32 * pdf))
+            Some((f * sp.terminator(dir), n as f32 * pdf))
         });
         l
     }
@@ -599,7 +611,7 @@ impl<'a> Tracer<'a> {
         if let Some((on, through)) = self.through_mask(&sp, bsdf, ray, seed) {
             return self.reflected(&through, depth, on, specular, counters);
         }
-        let sp = sp.bumped(self.scene, bsdf);
+        let sp = sp.bumped(self.scene, bsdf, -ray.dir);
         if kind.is_glass() {
             if let Some(l) = self.rough_glass(&kind, &sp, ray, depth, seed, counters) {
                 return (l, emitter);
@@ -688,7 +700,8 @@ impl<'a> Tracer<'a> {
             (1, 1)
         };
         let sp = h.sp;
-        let closed = if n > 1 {
+        // (On a bumped surface the terminator term weighs each light sample.)
+        let closed = if n > 1 && sp.ns == sp.flat {
             h.kind
                 .lambertian()
                 .and_then(|f| Some(f * light.unoccluded_irradiance(sp.p, sp.ns)?))
@@ -742,7 +755,7 @@ impl<'a> Tracer<'a> {
                 sib::set(q.record, pick.source, a, b, visible);
             }
             let share = (b - a) as f32 / n as f32;
-            let f = h.kind.diffuse_brdf(cos_l, h.cos_v) * s.value * (cos_l * share);
+            let f = h.kind.diffuse_brdf(cos_l, h.cos_v) * s.value * (cos_l * share * sp.terminator(s.dir));
             unoccluded += f;
             if visible {
                 // Dimmed by the thin panes on the way (the ray made again only if

@@ -259,6 +259,13 @@ impl Bsdf {
         self.textures.iter().any(|t| t.field == TexField::Opacity)
     }
 
+    /// Whether a `bumpmap` or `normalmap` tilts the shading normal.
+    pub fn bumped(&self) -> bool {
+        self.textures
+            .iter()
+            .any(|t| matches!(t.field, TexField::Bump | TexField::Normal))
+    }
+
     /// How opaque the surface is at surface parameters `uv` (its `mask`'s opacity, the
     /// texture's [`luminance`] in [0, 1], as Mitsuba reads it; 1 without a mask).
     pub fn opacity_at(&self, uv: Vec2, textures: &[Texture]) -> f32 {
