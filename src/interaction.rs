@@ -31,6 +31,9 @@ pub struct SurfacePoint {
     /// The shading normal before a bump or normal map tilted it
     /// ([`SurfacePoint::bumped`]); `ns` itself without one.
     pub flat: Vec3,
+    /// Whether the map's reflection is weighed by the terminator term
+    /// ([`SurfacePoint::terminator`]; Mitsuba's `use_shadowing_function`).
+    pub shadowing: bool,
 }
 
 impl SurfacePoint {
@@ -76,6 +79,7 @@ impl SurfacePoint {
             bary: hit.bary,
             footprint: 0.0,
             flat: ns,
+            shadowing: false,
         }
     }
 
@@ -202,8 +206,11 @@ impl SurfacePoint {
         let Some(slot) = bsdf
             .textures
             .iter()
-            .find(|t| matches!(t.field, TexField::Bump | TexField::Normal))
+            .find(|t| matches!(t.field, TexField::Bump(_) | TexField::Normal(_)))
         else {
+            return self;
+        };
+        let (TexField::Bump(rules) | TexField::Normal(rules)) = slot.field else {
             return self;
         };
         let Some(tex) = scene.textures.get(slot.texture as usize) else {
@@ -234,7 +241,7 @@ impl SurfacePoint {
         let n = if self.front { self.ns } else { -self.ns };
         let uv = self.uv(scene);
         let bent = match slot.field {
-            TexField::Bump => {
+            TexField::Bump(_) => {
                 let g = tex.gradient(uv) * slot.factor.x;
                 let du = dp_du + n * (g.x - n.dot(dp_du));
                 let dv = dp_dv + n * (g.y - n.dot(dp_dv));
@@ -252,7 +259,8 @@ impl SurfacePoint {
         };
         let bent = if bent.dot(self.ng) < 0.0 { -bent } else { bent };
         let flat = self.ns;
-        self.ns = if wi.dot(flat) * wi.dot(bent) <= 0.0 {
+        self.shadowing = rules.shadowing;
+        self.ns = if rules.flip && wi.dot(flat) * wi.dot(bent) <= 0.0 {
             (2.0 * bent.dot(flat) * flat - bent).normalize_or(flat)
         } else {
             bent
@@ -265,7 +273,8 @@ impl SurfacePoint {
     /// the unit direction `dir` by: the microfacet shadowing of a surface whose
     /// normals tilt as this point's does, so light from low over the surface falls
     /// off smoothly; none below the untilted normal (Mitsuba's orientation test).
-    /// 1 where no map tilts the normal.
+    /// 1 where no map tilts the normal, and above it where the file turned the
+    /// term off.
     pub fn terminator(&self, dir: Vec3) -> f32 {
         if self.ns == self.flat {
             return 1.0;
@@ -273,6 +282,9 @@ impl SurfacePoint {
         let c = self.flat.dot(dir);
         if c <= 0.0 {
             return 0.0;
+        }
+        if !self.shadowing {
+            return 1.0;
         }
         terminator(self.flat.dot(self.ns), c)
     }
@@ -282,10 +294,13 @@ impl SurfacePoint {
     /// what the light read from the solution and the gather (both found at the
     /// untilted normal) is scaled by on a bumped surface. 1 where no map tilts it.
     pub fn hemisphere_share(&self) -> f32 {
-        if self.ns == self.flat {
-            return 1.0;
+        let c = self.flat.dot(self.ns);
+        match (self.ns == self.flat, self.shadowing) {
+            (true, _) => 1.0,
+            (false, true) => hemisphere_share(c),
+            // No terminator term: the even light over both normals' hemispheres.
+            (false, false) => 0.5 * (1.0 + c),
         }
-        hemisphere_share(self.flat.dot(self.ns))
     }
 
     /// How opaque the material is here (`mask`'s opacity; 1 without a mask).
@@ -638,13 +653,21 @@ mod tests {
             sp.bumped(s, &s.bsdfs[0], -ray.dir)
         };
         for (field, factor, expect) in [
-            (TexField::Bump, 0.1, Vec3::new(-0.4, 0.0, 1.0).normalize()),
-            (TexField::Normal, 1.0, Vec3::new(0.6, 0.0, 0.8)),
+            (
+                TexField::Bump(Default::default()),
+                0.1,
+                Vec3::new(-0.4, 0.0, 1.0).normalize(),
+            ),
+            (
+                TexField::Normal(Default::default()),
+                1.0,
+                Vec3::new(0.6, 0.0, 0.8),
+            ),
         ] {
             s.bsdfs[0].textures = vec![TexSlot {
                 path: Vec::new(),
                 field,
-                texture: if field == TexField::Bump { 0 } else { 1 },
+                texture: if matches!(field, TexField::Bump(_)) { 0 } else { 1 },
                 factor: Vec3::splat(factor),
             }];
             let sp = at(&s, Vec3::new(0.5, 0.5, 2.0));
@@ -665,14 +688,15 @@ mod tests {
 
     /// A normal map's light against Mitsuba 3.9.1's `normalmap` over a `diffuse` of
     /// reflectance 0.5 (its `eval(ctx, si, wo)`, the cosine included, on the plane
-    /// z = 0 with dp/du along x), for a constant map normal `n` seen from `wi`:
-    /// rho / pi max(0, ns . wo) times the terminator term, where `ns` is the tilted
-    /// normal after [`SurfacePoint::bumped`] mirrored it when `wi` would see it from
-    /// behind (the second, third and fifth cases).
+    /// z = 0 with dp/du along x), for a constant map normal `n` seen from `wi`, under
+    /// both rules and with each turned off: rho / pi max(0, ns . wo) times the
+    /// terminator term, nothing where the eye sees `ns` from behind (the shading's
+    /// rule), where `ns` is the tilted normal after [`SurfacePoint::bumped`] mirrored
+    /// it when `wi` would see it from behind (cases two, three and five).
     #[test]
     fn a_normal_maps_light_is_mitsubas_with_its_flip_and_terminator_term() {
         use crate::accel::{Accel, Bvh};
-        use crate::scene::{TexField, TexSlot, Texture};
+        use crate::scene::{BumpRules, TexField, TexSlot, Texture};
         use crate::testutil::{quad, scene};
         let mut floor = quad([
             Vec3::new(-1.0, -1.0, 0.0),
@@ -684,57 +708,68 @@ mod tests {
         let mut s = scene(vec![(floor, Vec3::splat(0.5))], vec![], &[]);
         let bvh = Bvh::build(&s);
         let unit = |x: f32, y: f32, z: f32| Vec3::new(x, y, z).normalize();
-        for (n, wi, wo, mitsuba) in [
+        let (a, b) = (unit(0.6, 0.0, 0.8), unit(0.8, 0.0, 0.6));
+        let both = BumpRules::default();
+        let no_shadowing = BumpRules {
+            shadowing: false,
+            ..both
+        };
+        let no_flip = BumpRules { flip: false, ..both };
+        for (rules, n, wi, wo, mitsuba) in [
+            (both, a, unit(0.0, 0.0, 1.0), unit(0.5, 0.0, 1.0), 0.155_905_6),
+            (both, a, unit(-1.0, 0.0, 0.3), unit(0.5, 0.0, 1.0), 0.070_866_18),
+            (both, a, unit(-1.0, 0.0, 0.3), unit(-0.5, 0.2, 1.0), 0.153_363_1),
+            (both, b, unit(0.2, 0.1, 1.0), unit(-0.3, -0.4, 0.5), 0.012_827_81),
+            (both, b, unit(-0.9, 0.1, 0.2), unit(0.9, 0.0, 0.3), 0.0),
             (
-                unit(0.6, 0.0, 0.8),
-                unit(0.0, 0.0, 1.0),
-                unit(0.5, 0.0, 1.0),
-                0.155_905_6,
-            ),
-            (
-                unit(0.6, 0.0, 0.8),
+                no_shadowing,
+                a,
                 unit(-1.0, 0.0, 0.3),
                 unit(0.5, 0.0, 1.0),
-                0.070_866_18,
+                0.071_176_25,
             ),
             (
-                unit(0.6, 0.0, 0.8),
+                no_shadowing,
+                b,
+                unit(0.2, 0.1, 1.0),
+                unit(-0.3, -0.4, 0.5),
+                0.013_504_75,
+            ),
+            (
+                no_shadowing,
+                a,
                 unit(-1.0, 0.0, 0.3),
                 unit(-0.5, 0.2, 1.0),
-                0.153_363_1,
+                0.154_140_9,
             ),
+            (no_flip, a, unit(-1.0, 0.0, 0.3), unit(0.5, 0.0, 1.0), 0.0),
             (
-                unit(0.8, 0.0, 0.6),
+                no_flip,
+                b,
                 unit(0.2, 0.1, 1.0),
                 unit(-0.3, -0.4, 0.5),
                 0.012_827_81,
-            ),
-            (
-                unit(0.8, 0.0, 0.6),
-                unit(-0.9, 0.1, 0.2),
-                unit(0.9, 0.0, 0.3),
-                0.0,
             ),
         ] {
             let texel = ((n + Vec3::ONE) * 0.5).to_array();
             s.textures = vec![Texture::from_linear("n", 1, 1, vec![texel]).unwrap()];
             s.bsdfs[0].textures = vec![TexSlot {
                 path: Vec::new(),
-                field: TexField::Normal,
+                field: TexField::Normal(rules),
                 texture: 0,
                 factor: Vec3::ONE,
             }];
             let ray = Ray::new(wi, -wi);
             let hit = bvh.intersect(&ray).unwrap();
             let sp = SurfacePoint::new(&s, &ray, &hit).bumped(&s, &s.bsdfs[0], wi);
-            let ours = 0.5 * std::f32::consts::FRAC_1_PI * sp.ns.dot(wo).max(0.0) * sp.terminator(wo);
+            let ours = if sp.ns.dot(wi) > 0.0 {
+                0.5 * std::f32::consts::FRAC_1_PI * sp.ns.dot(wo).max(0.0) * sp.terminator(wo)
+            } else {
+                0.0
+            };
             assert!(
                 (ours - mitsuba).abs() < 2e-5,
-                "n {n} wi {wi} wo {wo}: {ours} vs {mitsuba}"
-            );
-            assert!(
-                sp.ns.dot(wi) > 0.0,
-                "the eye sees the tilted normal from its front"
+                "{rules:?} n {n} wi {wi} wo {wo}: {ours} vs {mitsuba}"
             );
         }
     }

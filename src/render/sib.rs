@@ -332,8 +332,8 @@ mod tests {
         };
         assert_eq!(Lighting::of(&bsdf(&[]), &mirror, light, n), None, "a metal");
         for other in [
-            TexField::Bump,
-            TexField::Normal,
+            TexField::Bump(Default::default()),
+            TexField::Normal(Default::default()),
             TexField::Opacity,
             TexField::Specular,
         ] {

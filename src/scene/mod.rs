@@ -229,13 +229,35 @@ pub enum TexField {
     /// `blendbsdf`'s `weight` (the texture's first channel).
     Weight,
     /// A height field that tilts the shading normal (`bumpmap`; its gradient times
-    /// the slot's `factor.x`, Mitsuba's `scale`).
-    Bump,
-    /// The shading normal in the surface's tangent frame, 2 x texel - 1 (`normalmap`).
-    Normal,
+    /// the slot's `factor.x`, Mitsuba's `scale`), under its rules.
+    Bump(BumpRules),
+    /// The shading normal in the surface's tangent frame, 2 x texel - 1
+    /// (`normalmap`), under its rules.
+    Normal(BumpRules),
     /// How opaque the surface is (`mask`'s `opacity`, the first channel): rays pass
     /// through the rest.
     Opacity,
+}
+
+/// The two rules Mitsuba 3 (since 3.7.1) applies to a `bumpmap` or `normalmap`, both
+/// on unless the file turns them off.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BumpRules {
+    /// `flip_invalid_normals`: a tilted normal the arriving ray would see from behind
+    /// is mirrored about the untilted one.
+    pub flip: bool,
+    /// `use_shadowing_function`: reflection is weighed by the microfacet terminator
+    /// term ([`crate::interaction::terminator`]).
+    pub shadowing: bool,
+}
+
+impl Default for BumpRules {
+    fn default() -> Self {
+        BumpRules {
+            flip: true,
+            shadowing: true,
+        }
+    }
 }
 
 /// A textured parameter of a material: where in the (blended) model it sits, which
@@ -263,7 +285,7 @@ impl Bsdf {
     pub fn bumped(&self) -> bool {
         self.textures
             .iter()
-            .any(|t| matches!(t.field, TexField::Bump | TexField::Normal))
+            .any(|t| matches!(t.field, TexField::Bump(_) | TexField::Normal(_)))
     }
 
     /// How opaque the surface is at surface parameters `uv` (its `mask`'s opacity, the

@@ -9,7 +9,7 @@ use roxmltree::Node;
 use super::document::{tag, Loader, Src};
 use super::parse;
 use super::properties::{Child, Obj, Target, Val};
-use crate::scene::{Bsdf, BsdfKind, Fresnel, Glossy, Microfacet, Rgb, TexField, TexSlot};
+use crate::scene::{Bsdf, BsdfKind, BumpRules, Fresnel, Glossy, Microfacet, Rgb, TexField, TexSlot};
 use crate::Result;
 
 /// The parameters that give a microfacet lobe's roughness.
@@ -182,15 +182,19 @@ impl Loader {
                 let Some(first) = inner.into_iter().next() else {
                     return Err(s.err(c, format!("bsdf '{ty}' needs a nested bsdf")));
                 };
+                let rules = BumpRules {
+                    flip: obj.boolean("flip_invalid_normals", true)?,
+                    shadowing: obj.boolean("use_shadowing_function", true)?,
+                };
                 let (field, scale, name) = if ty == "bumpmap" {
                     let scale = obj.float("scale")?.unwrap_or(1.0);
                     if !scale.is_finite() {
                         return Err(obj.err_param("scale", format!("= {scale} is not a number")));
                     }
                     let name = obj.any_texture().map(|(p, _)| p.name.clone());
-                    (TexField::Bump, scale, name)
+                    (TexField::Bump(rules), scale, name)
                 } else {
-                    (TexField::Normal, 1.0, Some("normalmap".to_string()))
+                    (TexField::Normal(rules), 1.0, Some("normalmap".to_string()))
                 };
                 let image = name.as_deref().and_then(|n| obj.texture_image(n));
                 match image {

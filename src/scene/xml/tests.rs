@@ -2405,7 +2405,9 @@ fn bad_rough_conductors_are_errors_naming_the_parameter() {
 }
 
 /// `bumpmap` (its texture under any name, `scale`) and `normalmap` keep their nested
-/// bsdf and add the map as a slot; without an image, the nested bsdf alone, warned.
+/// bsdf and add the map as a slot, with Mitsuba 3.7.1's two rules on unless turned
+/// off (`flip_invalid_normals`, `use_shadowing_function`); without an image, the
+/// nested bsdf alone, warned.
 #[test]
 fn bump_and_normal_maps_wrap_their_nested_bsdf() {
     use crate::scene::TexField;
@@ -2416,7 +2418,7 @@ fn bump_and_normal_maps_wrap_their_nested_bsdf() {
          <bsdf type=\"bumpmap\" id=\"b\"><texture type=\"bitmap\" name=\"arbitrary\"><string name=\"filename\" value=\"h.png\"/><boolean name=\"raw\" value=\"true\"/></texture>\
          <float name=\"scale\" value=\"0.5\"/><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.3\"/></bsdf></bsdf>\n\
          <bsdf type=\"normalmap\" id=\"n\"><texture type=\"bitmap\" name=\"normalmap\"><string name=\"filename\" value=\"h.png\"/><boolean name=\"raw\" value=\"true\"/></texture>\
-         <bsdf type=\"twosided\"><bsdf type=\"diffuse\"/></bsdf></bsdf>\n\
+         <boolean name=\"use_shadowing_function\" value=\"false\"/><bsdf type=\"twosided\"><bsdf type=\"diffuse\"/></bsdf></bsdf>\n\
          <bsdf type=\"bumpmap\" id=\"c\"><bsdf type=\"diffuse\"/></bsdf>\n\
          <shape type=\"cube\"><ref id=\"b\"/></shape><shape type=\"cube\"><ref id=\"n\"/></shape><shape type=\"cube\"><ref id=\"c\"/></shape>\n</scene>"
     );
@@ -2432,9 +2434,22 @@ fn bump_and_normal_maps_wrap_their_nested_bsdf() {
     );
     assert_eq!(
         (b[0].textures[0].field, b[0].textures[0].factor.x),
-        (TexField::Bump, 0.5)
+        (
+            TexField::Bump(crate::scene::BumpRules {
+                flip: true,
+                shadowing: true
+            }),
+            0.5
+        )
     );
-    assert!(b[1].twosided && b[1].textures[0].field == TexField::Normal);
+    assert!(b[1].twosided);
+    assert_eq!(
+        b[1].textures[0].field,
+        TexField::Normal(crate::scene::BumpRules {
+            flip: true,
+            shadowing: false
+        })
+    );
     assert!(b[2].textures.is_empty());
     assert!(
         l.warnings
