@@ -845,6 +845,13 @@ fn a_spot_seen_through_a_mirror_lights_the_wall_as_in_mitsuba() {
     }
 }
 
+/// Renders the repository's `scene` at render seed `seed` to `out`, quietly, and
+/// checks that it succeeded.
+fn render_quietly(scene: &str, seed: &str, out: &Path) {
+    let o = radtrace(&["render", &repo(scene), "--seed", seed, "-q", "-o", &s(out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 /// A room lit by a uniform sky through a window narrower than the sky's shooting cells
 /// (`tests/data/sky-window`): radtrace's default renders (seeds 0-3) against a
 /// 4096-spp Mitsuba image, mean over the pixels that do not see the sky within 4 %
@@ -857,16 +864,7 @@ fn a_room_lit_through_a_small_window_by_the_sky_is_as_bright_as_in_mitsuba() {
     let reference = radtrace::io::read_image(Path::new(&repo("tests/data/sky-window/mitsuba.exr"))).unwrap();
     let (mut ours, mut theirs, mut n) = (0.0f64, 0.0f64, 0);
     for seed in ["0", "1", "2", "3"] {
-        let o = radtrace(&[
-            "render",
-            &repo("tests/data/sky-window/sky-window.xml"),
-            "--seed",
-            seed,
-            "-q",
-            "-o",
-            &s(&out),
-        ]);
-        assert!(o.status.success(), "{}", stderr(&o));
+        render_quietly("tests/data/sky-window/sky-window.xml", seed, &out);
         let img = radtrace::io::read_image(&out).unwrap();
         for (r, p) in reference.pixels.iter().zip(&img.pixels) {
             if (r.x + r.y + r.z) / 3.0 < 1.5 {
@@ -895,16 +893,7 @@ fn a_bump_mapped_plane_looks_as_in_mitsuba() {
     let dir = tmp();
     let out = dir.path().join("b.exr");
     for seed in ["0", "1"] {
-        let o = radtrace(&[
-            "render",
-            &repo("tests/data/bump-plane/bump-plane.xml"),
-            "--seed",
-            seed,
-            "-q",
-            "-o",
-            &s(&out),
-        ]);
-        assert!(o.status.success(), "{}", stderr(&o));
+        render_quietly("tests/data/bump-plane/bump-plane.xml", seed, &out);
         let c = radtrace::compare::compare_files(
             Path::new(&repo("tests/data/bump-plane/mitsuba.exr")),
             &out,
