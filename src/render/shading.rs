@@ -640,7 +640,7 @@ impl<'a> Tracer<'a> {
         if kind.has_diffuse() {
             let interp = self.locate(mesh, &hit, &sp);
             let textured = texture_ratio(bsdf, &kind, mesh, &interp);
-            l += interp.apply(total) * textured * std::f32::consts::FRAC_1_PI;
+            l += interp.apply(total) * textured * (std::f32::consts::FRAC_1_PI * sp.hemisphere_share());
         }
         if depth < self.max_depth {
             if let Some(lobe) = kind.glossy() {
@@ -651,7 +651,9 @@ impl<'a> Tracer<'a> {
             if m.max_element() > 0.0 && dir.dot(sp.ng) > 0.0 {
                 counters.reflection_rays += 1;
                 let refl = sp.spawn(dir, f32::INFINITY);
-                l += m * self.reflected_whole(&refl, depth + 1, derive(seed, Stream::Reflection), counters);
+                l += m
+                    * sp.terminator(dir)
+                    * self.reflected_whole(&refl, depth + 1, derive(seed, Stream::Reflection), counters);
             }
         }
         (l, emitter)
