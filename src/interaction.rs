@@ -276,7 +276,7 @@ impl SurfacePoint {
     /// 1 where no map tilts the normal, and above it where the file turned the
     /// term off.
     pub fn terminator(&self, dir: Vec3) -> f32 {
-        if self.ns == self.flat {
+        if !self.is_bumped() {
             return 1.0;
         }
         let c = self.flat.dot(dir);
@@ -295,12 +295,17 @@ impl SurfacePoint {
     /// untilted normal) is scaled by on a bumped surface. 1 where no map tilts it.
     pub fn hemisphere_share(&self) -> f32 {
         let c = self.flat.dot(self.ns);
-        match (self.ns == self.flat, self.shadowing) {
-            (true, _) => 1.0,
-            (false, true) => hemisphere_share(c),
+        match (self.is_bumped(), self.shadowing) {
+            (false, _) => 1.0,
+            (true, true) => hemisphere_share(c),
             // No terminator term: the even light over both normals' hemispheres.
-            (false, false) => 0.5 * (1.0 + c),
+            (true, false) => 0.5 * (1.0 + c),
         }
+    }
+
+    /// Whether a bump or normal map tilted the shading normal here.
+    pub fn is_bumped(&self) -> bool {
+        self.ns != self.flat
     }
 
     /// How opaque the material is here (`mask`'s opacity; 1 without a mask).
@@ -353,31 +358,28 @@ const SHARE_STEPS: usize = 64;
 /// `cos_tilt` takes, as Mitsuba 3 lights a bumped diffuse surface: directions below
 /// either normal bring nothing, the rest their cosine to the tilted normal times
 /// [`terminator`]. (Without the terminator term it would be (1 + cos tilt) / 2.)
-/// Tabulated once by a midpoint rule, then read linearly.
+/// Tabulated once, then read linearly: per ring of directions at angle theta from
+/// the untilted normal the terminator term is one value and the cosine's positive
+/// part integrates over the ring in closed form ([`ring_cosine`]); the rings are
+/// summed by a midpoint rule.
 pub fn hemisphere_share(cos_tilt: f32) -> f32 {
     static TABLE: std::sync::OnceLock<Vec<f32>> = std::sync::OnceLock::new();
     let table = TABLE.get_or_init(|| {
-        let (nt, np) = (128, 256);
+        const RINGS: usize = 512;
+        let d_theta = std::f64::consts::FRAC_PI_2 / RINGS as f64;
         (0..=SHARE_STEPS)
             .map(|k| {
-                let c = k as f32 / SHARE_STEPS as f32;
-                let tilted = Vec3::new((1.0 - c * c).max(0.0).sqrt(), 0.0, c);
-                let mut sum = 0.0f64;
-                for i in 0..nt {
-                    let theta = (i as f32 + 0.5) / nt as f32 * std::f32::consts::FRAC_PI_2;
-                    let (st, ct) = theta.sin_cos();
-                    let g = terminator(c, ct);
-                    for j in 0..np {
-                        let phi = (j as f32 + 0.5) / np as f32 * std::f32::consts::TAU;
-                        let w = Vec3::new(st * phi.cos(), st * phi.sin(), ct);
-                        let cos = w.dot(tilted);
-                        if cos > 0.0 {
-                            sum += f64::from(cos * g * st);
-                        }
-                    }
-                }
-                let cell = (std::f64::consts::FRAC_PI_2 / nt as f64) * (std::f64::consts::TAU / np as f64);
-                (sum * cell / std::f64::consts::PI) as f32
+                let c = k as f64 / SHARE_STEPS as f64;
+                let s = (1.0 - c * c).max(0.0).sqrt();
+                let sum: f64 = (0..RINGS)
+                    .map(|i| {
+                        let (st, ct) = ((i as f64 + 0.5) * d_theta).sin_cos();
+                        // On the ring, the tilted normal's cosine is
+                        // st s cos(phi) + ct c.
+                        ring_cosine(st * s, ct * c) * f64::from(terminator(c as f32, ct as f32)) * st
+                    })
+                    .sum();
+                (sum * d_theta / std::f64::consts::PI) as f32
             })
             .collect()
     });
@@ -385,6 +387,20 @@ pub fn hemisphere_share(cos_tilt: f32) -> f32 {
     let k = (x as usize).min(SHARE_STEPS - 1);
     let t = x - k as f32;
     table[k] * (1.0 - t) + table[k + 1] * t
+}
+
+/// The integral over phi in [0, 2 pi) of max(0, a cos phi + b), for a >= 0.
+fn ring_cosine(a: f64, b: f64) -> f64 {
+    use std::f64::consts::PI;
+    if b >= a {
+        2.0 * PI * b
+    } else if b <= -a {
+        0.0
+    } else {
+        // Positive for |phi| < phi0, where a cos phi0 = -b.
+        let phi0 = (-b / a).acos();
+        2.0 * (a * phi0.sin() + b * phi0)
+    }
 }
 
 /// The one offset: how far a ray's ends are moved off their surfaces, relative to

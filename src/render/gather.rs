@@ -474,12 +474,7 @@ impl Gather {
                     continue;
                 }
                 let turn = (1.0 - sp.ns.dot(r.n)).max(0.0).sqrt();
-                let err = d2.sqrt() / r.radius
-                    + if sp.ns == sp.flat {
-                        turn
-                    } else {
-                        BUMPED_TURN * turn
-                    };
+                let err = d2.sqrt() / r.radius + if sp.is_bumped() { BUMPED_TURN * turn } else { turn };
                 let w = 1.0 - err / ACCURACY;
                 if w > 0.0 {
                     sum += r.at(sp.p, sp.ns) * w;

@@ -703,7 +703,7 @@ impl<'a> Tracer<'a> {
         };
         let sp = h.sp;
         // (On a bumped surface the terminator term weighs each light sample.)
-        let closed = if n > 1 && sp.ns == sp.flat {
+        let closed = if n > 1 && !sp.is_bumped() {
             h.kind
                 .lambertian()
                 .and_then(|f| Some(f * light.unoccluded_irradiance(sp.p, sp.ns)?))
