@@ -798,6 +798,11 @@ impl Solver<'_> {
             0 => (Vec::new(), 0),
             _ => parted::parted_pieces(&self.mesh, self.accel, field, pieces),
         };
+        // The light of the shots, per vertex: where a wall parts it, deposits keep to
+        // their side; and against it the photons' noise is judged ([`noise`]).
+        let shot_total = total_radiosity(&self.mesh, &self.general, &self.lists);
+        let shot_light: Vec<f32> = shot_total.iter().map(|b| mean(*b)).collect();
+        let deposit_parted = Parted::for_deposits(&self.mesh, self.accel, shot_total);
         let (emit_parted, parted_rays) = parted(&self.unshot, &emit, patch_photons);
         let (shot_parted, shot_parted_rays) = parted(&self.shot, &shot_emit, shot_photons);
         self.stats.rays += parted_rays + shot_parted_rays;
@@ -821,6 +826,7 @@ impl Solver<'_> {
             lights,
             aim,
             spare: Default::default(),
+            parted: Some(&deposit_parted),
         };
         let order = tracer.order();
         let chunks = order.len() as u64;
@@ -828,12 +834,7 @@ impl Solver<'_> {
         // own photons traced.
         let slots = self.settings.sources_per_patch as usize;
         let mut sums: Vec<Deposits> = (0..photons::KINDS).map(|_| Deposits::new(slots)).collect();
-        // The light each vertex has from the shots, against which the photons' noise
-        // is judged ([`noise`]), and when it is judged first.
-        let shot_light: Vec<f32> = total_radiosity(&self.mesh, &self.general, &self.lists)
-            .iter()
-            .map(|b| mean(*b))
-            .collect();
+        // When the photons' noise is judged first.
         let area: Vec<f32> = self.mesh.vertices.iter().map(|v| v.area).collect();
         let mut halves = noise::Halves::new(nv);
         let mut judge_at = noise::FIRST_PER_VERTEX * receiving;

@@ -86,6 +86,10 @@ pub struct Tracer<'a> {
     /// and zero afresh for each of the thousands of chunks (a tenth of the glass
     /// window's whole render went to the kernel clearing those pages).
     pub spare: std::sync::Mutex<Vec<Vec<Deposit>>>,
+    /// The pieces a wall stands on, by the light of the deterministic shots: a
+    /// photon landing on one deposits only to the vertices on its side
+    /// ([`super::Parted::keep_apart`]).
+    pub parted: Option<&'a super::Parted>,
 }
 
 impl<'a> Tracer<'a> {
@@ -343,6 +347,10 @@ impl<'a> Tracer<'a> {
             // that (the lobe reflects at most that fraction, nearly, at any angle).
             let pg = glossy.map_or(0.0, |g| mean(g.scale * g.fresnel.f0()).clamp(0.0, 1.0));
             if let (Some(q), Some(w)) = (q.filter(|_| rho.max_element() > 0.0), &w) {
+                let mut w = *w;
+                if let Some(parted) = self.parted {
+                    *rays += parted.keep_apart(self.mesh, self.accel, &mut w, sp.p);
+                }
                 let slot = source
                     .and_then(|s| self.lists[q as usize].iter().position(|e| e.source == s))
                     .map_or(u8::MAX, |k| k as u8);

@@ -326,6 +326,48 @@ fn a_wall_keeps_the_light_of_photons_from_patches_that_span_two_rooms_in_its_roo
     );
 }
 
+/// [`two_rooms_lit_by`] the point light in the right room, the wall at x 1.6..1.7,
+/// by photons alone on 0.25 elements: the floor's element 1.5..1.75 runs under the
+/// wall, its vertex at x 1.5 on the dark side. A photon landing on the lit side's
+/// strip 1.7..1.75 once deposited a share of its light there by the plain weights,
+/// and the dark side's reads of that vertex took it: the floor vertices within 0.2 of
+/// the wall on the dark side had 1.0 % of the lit room's floor light (0.01 % farther
+/// in); 0.075 % now that a deposit keeps to the vertices on its side
+/// ([`Parted::keep_apart`]).
+#[test]
+fn a_photon_deposits_its_light_on_its_own_side_of_a_wall() {
+    let light = Light::Point {
+        position: Vec3::new(3.0, 0.6, 0.5),
+        intensity: Vec3::splat(3.0),
+    };
+    let mut st = settings(0.25, 16, 0);
+    st.photons = 256;
+    st.max_photons = 400_000;
+    let wall = 1.6;
+    let (_, sol) = two_rooms_lit_by(vec![light], wall, 0, &st);
+    assert_eq!(sol.stats.patch_shots, 0);
+    let (_, right) = in_each_room(&sol, 2, wall);
+    let total = sol.total();
+    let (mut sum, mut area, mut count) = (0.0, 0.0, 0);
+    for patch in sol.mesh.patches.iter().filter(|q| q.shape == 2) {
+        for i in patch.first_vertex..patch.first_vertex + patch.vertex_count {
+            let vx = &sol.mesh.vertices[i as usize];
+            if vx.p.x > wall - 0.2 && vx.p.x < wall && vx.area > 0.0 {
+                sum += total[i as usize].x * vx.area;
+                area += vx.area;
+                count += 1;
+            }
+        }
+    }
+    assert!(count >= 3, "{count} vertices beside the wall");
+    let near = sum / area;
+    assert!(right > 0.1, "right room's floor {right}");
+    assert!(
+        near < 0.002 * right,
+        "dark side's floor beside the wall {near} of the lit room's {right}"
+    );
+}
+
 /// `field` read on the floor below `above` (looking down): interpolated, and as
 /// [`Parted`] reads it (the render's and the gather's reads).
 fn read_floor(
