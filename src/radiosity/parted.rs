@@ -287,8 +287,9 @@ impl Parted {
 
     /// The parted sets for [`Parted::keep_apart`]: only those whose vertices' light
     /// in `field` differs by more than [`OTHER_SIDE`] in some channel, since the
-    /// deposits change nothing elsewhere. (Found by [`CONTRAST`], as for the reads,
-    /// they took 0.31 s of the classroom's solve, 0.37 s of the staircase's.)
+    /// deposits change nothing elsewhere. (Listed from every piece and found by
+    /// [`CONTRAST`], as the reads' once were, they took 0.31 s of the classroom's
+    /// solve, 0.37 s of the staircase's.)
     pub fn for_deposits(mesh: &RadiosityMesh, accel: &dyn Accel, field: Vec<Rgb>) -> Self {
         Self::found(mesh, accel, field, Drop::Apart)
     }
@@ -342,8 +343,9 @@ impl Parted {
     /// on a wall that runs on under another wall into the next room to a vertex on
     /// the far side, whose reads (on its own side) took it: a room lit through a door
     /// ajar, its side wall running on into the lit room, showed a band 60 % too
-    /// bright along the corner (FLIP against Mitsuba 0.0674 / 0.0667 -> 0.0603 /
-    /// 0.0602 on render seeds 0 / 1, as with that wall cut at the corner).
+    /// bright along the corner (`scenes/ajar-room`: FLIP against Mitsuba 0.0677 /
+    /// 0.0672 -> 0.0592 / 0.0598 on render seeds 0 / 1; with that wall cut at the
+    /// corner, as good as this).
     /// Returns the rays cast.
     pub fn keep_apart(&self, mesh: &RadiosityMesh, accel: &dyn Accel, w: &mut Interp, x: Vec3) -> u64 {
         self.keep(mesh, accel, w, x, Drop::Apart)
