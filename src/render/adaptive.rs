@@ -396,7 +396,9 @@ pub fn render_adaptive(
     ctx.run_level(&mut set, &mut levels, 0, &tasks, Store::Base);
     set.index_pixels();
 
-    // Levels 1..: refine where the criteria say.
+    // Levels 1..: refine where the criteria say, and always where a small light's
+    // image may be.
+    let small = small_light_pixels(camera, &tracer.emitter_bounds(), w, h);
     let mut marked: Vec<u32> = Vec::new();
     for level in 1..=refine.max_level as i32 {
         let stored = |x: u32, y: u32| set.with_bits(set.base[(y * w + x) as usize]);
@@ -420,6 +422,11 @@ pub fn render_adaptive(
                 .filter(|&p| differ(set.pixel(p).iter().map(|&i| set.with_bits(i)), refine))
                 .collect()
         };
+        if !small.is_empty() {
+            marked.extend_from_slice(&small);
+            marked.sort_unstable();
+            marked.dedup();
+        }
         if marked.is_empty() {
             break;
         }
@@ -506,6 +513,58 @@ pub fn render_adaptive(
             .collect(),
         counters,
     }
+}
+
+/// An emitter whose image on the film has a bounding box of at most this many
+/// square pixels is small: its pixels are refined at every level, whatever the
+/// criteria say. (A larger image holds several pixels' level-0 samples; one that
+/// meets it has the criteria refine round it.)
+pub const SMALL_LIGHT_PIXELS: f32 = 16.0;
+
+/// The pixels (sorted) within a pixel of the image of each small emitter (its
+/// bounds, `emitters`, projected; [`SMALL_LIGHT_PIXELS`]). A light whose image is a
+/// pixel or two across is met by a pixel's one level-0 sample only by chance, and
+/// the criteria refine only where a sample met it: a 16 cm downlight 7 m away on a
+/// 256 x 144 film (4 x 1.3 pixels, seen from below) came out at a fifth of its light
+/// (render seeds 0-2) or two thirds (seed 3), where Mitsuba's 64 samples a pixel
+/// find it; now at 0.91-1.08 of Mitsuba's 1024-spp image's light there. Refined to
+/// every level, each of its pixels takes 4^max_level samples: a few hundred samples
+/// per light.
+fn small_light_pixels(camera: &Camera, emitters: &[(Vec3, Vec3)], w: u32, h: u32) -> Vec<u32> {
+    let mut out = Vec::new();
+    for &(lo, hi) in emitters {
+        let corners = (0..8).map(|k| {
+            Vec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            )
+        });
+        let Some(px) = corners.map(|c| camera.project(c)).collect::<Option<Vec<_>>>() else {
+            continue;
+        };
+        let (x0, x1) = px.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), p| {
+            (a.min(p.0), b.max(p.0))
+        });
+        let (y0, y1) = px.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), p| {
+            (a.min(p.1), b.max(p.1))
+        });
+        if !((x1 - x0) * (y1 - y0) <= SMALL_LIGHT_PIXELS) {
+            continue;
+        }
+        if x1 < -1.0 || y1 < -1.0 || x0 > w as f32 + 1.0 || y0 > h as f32 + 1.0 {
+            continue;
+        }
+        let clamp = |v: f32, n: u32| (v.max(0.0) as u32).min(n - 1);
+        for y in clamp(y0 - 1.0, h)..=clamp(y1 + 1.0, h) {
+            for x in clamp(x0 - 1.0, w)..=clamp(x1 + 1.0, w) {
+                out.push(y * w + x);
+            }
+        }
+    }
+    out.sort_unstable();
+    out.dedup();
+    out
 }
 
 /// The point `jitter` (in [0, 1)^2) of the cell at `origin` of size `size`, kept

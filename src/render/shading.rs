@@ -140,6 +140,17 @@ impl<'a> Tracer<'a> {
         self.sources.len()
     }
 
+    /// The bounds of every shape that emits light (an area light's shape), which
+    /// the camera may see.
+    pub fn emitter_bounds(&self) -> Vec<(Vec3, Vec3)> {
+        self.scene
+            .shapes
+            .iter()
+            .filter(|s| s.emitter.is_some())
+            .filter_map(|s| s.mesh.bounds())
+            .collect()
+    }
+
     /// Whether each ray-traced source is a point or spot light (one light point).
     pub fn point_sources(&self) -> Vec<bool> {
         self.sources.iter().map(|s| !s.is_area()).collect()
