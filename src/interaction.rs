@@ -203,14 +203,11 @@ impl SurfacePoint {
     /// and disks are left as they are.
     pub fn bumped(mut self, scene: &Scene, bsdf: &Bsdf, wi: Vec3) -> Self {
         use crate::scene::TexField;
-        let Some(slot) = bsdf
+        let Some((slot, rules)) = bsdf
             .textures
             .iter()
-            .find(|t| matches!(t.field, TexField::Bump(_) | TexField::Normal(_)))
+            .find_map(|t| Some((t, t.field.bump_rules()?)))
         else {
-            return self;
-        };
-        let (TexField::Bump(rules) | TexField::Normal(rules)) = slot.field else {
             return self;
         };
         let Some(tex) = scene.textures.get(slot.texture as usize) else {

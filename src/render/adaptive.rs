@@ -543,12 +543,11 @@ fn small_light_pixels(camera: &Camera, emitters: &[(Vec3, Vec3)], w: u32, h: u32
         let Some(px) = corners.map(|c| camera.project(c)).collect::<Option<Vec<_>>>() else {
             continue;
         };
-        let (x0, x1) = px.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), p| {
-            (a.min(p.0), b.max(p.0))
+        let (a, b) = px.iter().fold((Vec2::INFINITY, Vec2::NEG_INFINITY), |(a, b), p| {
+            let p = Vec2::new(p.0, p.1);
+            (a.min(p), b.max(p))
         });
-        let (y0, y1) = px.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), p| {
-            (a.min(p.1), b.max(p.1))
-        });
+        let ((x0, y0), (x1, y1)) = ((a.x, a.y), (b.x, b.y));
         if !((x1 - x0) * (y1 - y0) <= SMALL_LIGHT_PIXELS) {
             continue;
         }

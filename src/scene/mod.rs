@@ -239,6 +239,16 @@ pub enum TexField {
     Opacity,
 }
 
+impl TexField {
+    /// The rules of a bump or normal map; `None` for any other field.
+    pub fn bump_rules(self) -> Option<BumpRules> {
+        match self {
+            TexField::Bump(rules) | TexField::Normal(rules) => Some(rules),
+            _ => None,
+        }
+    }
+}
+
 /// The two rules Mitsuba 3 (since 3.7.1) applies to a `bumpmap` or `normalmap`, both
 /// on unless the file turns them off.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -283,9 +293,7 @@ impl Bsdf {
 
     /// Whether a `bumpmap` or `normalmap` tilts the shading normal.
     pub fn bumped(&self) -> bool {
-        self.textures
-            .iter()
-            .any(|t| matches!(t.field, TexField::Bump(_) | TexField::Normal(_)))
+        self.textures.iter().any(|t| t.field.bump_rules().is_some())
     }
 
     /// How opaque the surface is at surface parameters `uv` (its `mask`'s opacity, the
